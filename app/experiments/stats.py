@@ -1,0 +1,180 @@
+"""The statistics of a policy comparison: descriptive summaries, tests, corrections, effects.
+
+Pure functions on plain sequences, so they are checked against scipy on known data. Runs
+are the unit of analysis: one number per run and metric, seeds independent.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from scipy import stats as sps
+
+CONFIDENCE = 0.95
+ALPHA = 0.05
+
+
+def _clean(x: Sequence[float | None]) -> np.ndarray:
+    """Drop missing values: a metric absent from a run (e.g. no auctions of a kind) has no value."""
+    arr = np.asarray([v for v in x if v is not None], dtype=float)
+    return arr[np.isfinite(arr)]
+
+
+@dataclass(frozen=True)
+class Describe:
+    n: int
+    mean: float | None
+    std: float | None
+    ci_low: float | None
+    ci_high: float | None
+    median: float | None
+    min: float | None
+    max: float | None
+
+    @property
+    def half_width(self) -> float | None:
+        if self.ci_high is None or self.mean is None:
+            return None
+        return self.ci_high - self.mean
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["ci95"] = [d.pop("ci_low"), d.pop("ci_high")]
+        return d
+
+
+def describe(x: Sequence[float | None], confidence: float = CONFIDENCE) -> Describe:
+    """n, mean, sample std (ddof=1) and the t-based CI of the mean (none for n < 2)."""
+    a = _clean(x)
+    n = int(a.size)
+    if n == 0:
+        return Describe(0, None, None, None, None, None, None, None)
+    mean = float(a.mean())
+    if n < 2:
+        return Describe(1, mean, None, None, None, mean, mean, mean)
+    std = float(a.std(ddof=1))
+    half = float(sps.t.ppf(0.5 + confidence / 2, n - 1)) * std / math.sqrt(n)
+    return Describe(
+        n, mean, std, mean - half, mean + half, float(np.median(a)), float(a.min()), float(a.max())
+    )
+
+
+def welch_p(a: Sequence[float | None], b: Sequence[float | None]) -> float | None:
+    """Two-sided Welch t-test p-value; two constant samples give 1 if equal, else 0."""
+    x, y = _clean(a), _clean(b)
+    if x.size < 2 or y.size < 2:
+        return None
+    if x.std() == 0 and y.std() == 0:
+        return 1.0 if x.mean() == y.mean() else 0.0
+    return float(sps.ttest_ind(x, y, equal_var=False).pvalue)
+
+
+def mann_whitney(
+    a: Sequence[float | None], b: Sequence[float | None]
+) -> tuple[float, float] | None:
+    """Two-sided Mann–Whitney U (U of `a`, p-value); no test if every value is tied."""
+    x, y = _clean(a), _clean(b)
+    if x.size == 0 or y.size == 0:
+        return None
+    if np.unique(np.concatenate([x, y])).size == 1:
+        return float(x.size * y.size / 2), 1.0
+    res = sps.mannwhitneyu(x, y, alternative="two-sided")
+    return float(res.statistic), float(res.pvalue)
+
+
+def cohen_d(a: Sequence[float | None], b: Sequence[float | None]) -> float | None:
+    """(mean a − mean b) / pooled sd; positive when `a` is larger."""
+    x, y = _clean(a), _clean(b)
+    if x.size < 2 or y.size < 2:
+        return None
+    pooled = ((x.size - 1) * x.var(ddof=1) + (y.size - 1) * y.var(ddof=1)) / (x.size + y.size - 2)
+    if pooled == 0:
+        return 0.0 if x.mean() == y.mean() else math.copysign(math.inf, x.mean() - y.mean())
+    return float((x.mean() - y.mean()) / math.sqrt(pooled))
+
+
+def rank_biserial(u_a: float, n_a: int, n_b: int) -> float:
+    """2·U_a/(n_a·n_b) − 1 in [−1, 1]; positive when `a` tends to be larger."""
+    return 2.0 * u_a / (n_a * n_b) - 1.0
+
+
+def holm(pvalues: Sequence[float | None]) -> list[float | None]:
+    """Holm's step-down adjustment (as R's `p.adjust(method="holm")`); None stays None."""
+    idx = [i for i, p in enumerate(pvalues) if p is not None]
+    m = len(idx)
+    order = sorted(idx, key=lambda i: (pvalues[i], i))
+    out: list[float | None] = [None] * len(pvalues)
+    running = 0.0
+    for rank, i in enumerate(order):
+        p = pvalues[i]
+        assert p is not None
+        running = max(running, min(1.0, (m - rank) * p))
+        out[i] = running
+    return out
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """One metric, one pair of policies: `a` minus `b`."""
+
+    a: str
+    b: str
+    n_a: int
+    n_b: int
+    mean_diff: float | None
+    welch_p: float | None
+    welch_p_holm: float | None
+    mwu_u: float | None
+    mwu_p: float | None
+    mwu_p_holm: float | None
+    cohen_d: float | None
+    rank_biserial: float | None
+
+    @property
+    def significant(self) -> bool:
+        return self.welch_p_holm is not None and self.welch_p_holm < ALPHA
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["significant"] = self.significant
+        return d
+
+
+def pairwise(groups: dict[str, Sequence[float | None]]) -> list[Comparison]:
+    """Every pair of groups (in the given order), Holm-corrected within this metric.
+
+    The family is the k·(k−1)/2 pairs of one metric; Welch and Mann–Whitney p-values are
+    corrected separately.
+    """
+    names = list(groups)
+    pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+    raw = []
+    for a, b in pairs:
+        x, y = _clean(groups[a]), _clean(groups[b])
+        mw = mann_whitney(x, y)
+        diff = float(x.mean() - y.mean()) if x.size and y.size else None
+        rb = rank_biserial(mw[0], x.size, y.size) if mw else None
+        raw.append((a, b, x.size, y.size, diff, welch_p(x, y), mw, cohen_d(x, y), rb))
+    wh = holm([r[5] for r in raw])
+    mh = holm([r[6][1] if r[6] else None for r in raw])
+    return [
+        Comparison(
+            a=a,
+            b=b,
+            n_a=int(na),
+            n_b=int(nb),
+            mean_diff=diff,
+            welch_p=wp,
+            welch_p_holm=wh[i],
+            mwu_u=mw[0] if mw else None,
+            mwu_p=mw[1] if mw else None,
+            mwu_p_holm=mh[i],
+            cohen_d=d,
+            rank_biserial=rb,
+        )
+        for i, (a, b, na, nb, diff, wp, mw, d, rb) in enumerate(raw)
+    ]
