@@ -1,0 +1,1 @@
+"""Regolith's service layer: command line, web API, persistence, live runner."""

@@ -1,0 +1,34 @@
+"""The `regolith` command line: one Typer app, one module per command group."""
+
+from __future__ import annotations
+
+import typer
+
+from app.cli import run as _run
+
+cli = typer.Typer(
+    name="regolith",
+    help="Mission control for auction-based lunar mining robot teams.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+cli.command(name="run")(_run.run)
+
+try:  # command groups owned by other parts of the service register themselves here
+    from app.cli import serve as _serve
+
+    _serve.register(cli)
+except ImportError:  # pragma: no cover - only while a part is being built
+    pass
+try:
+    from app.cli import sweep as _sweep
+
+    _sweep.register(cli)
+except ImportError:  # pragma: no cover
+    pass
+
+
+def main() -> None:
+    """Console-script entry point."""
+    cli()

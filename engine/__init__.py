@@ -1,0 +1,35 @@
+"""Regolith's engine: the auction-based mining mission as pure, deterministic domain code.
+
+See docs/engine-api.md. Nothing here imports the web or database layers.
+"""
+
+from engine.errors import CommandRejected, EngineError, UnknownRobotError
+from engine.events import Event
+from engine.mission import Mission, run_mission
+from engine.policies import POLICIES, POLICY_NAMES, Policy, register_policy, resolve_policy
+from engine.scenario import (
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    parse_scenario,
+    reference_scenario,
+)
+
+__all__ = [
+    "POLICIES",
+    "POLICY_NAMES",
+    "CommandRejected",
+    "EngineError",
+    "Event",
+    "Mission",
+    "Policy",
+    "Scenario",
+    "ScenarioError",
+    "UnknownRobotError",
+    "load_scenario",
+    "parse_scenario",
+    "reference_scenario",
+    "register_policy",
+    "resolve_policy",
+    "run_mission",
+]

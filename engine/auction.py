@@ -1,0 +1,309 @@
+"""The MURDOCH-variant auction (SPEC §5): first-price, one round, broadcast.
+
+`rank_bids` and `select_winner` are the pure decisions. `AuctionHouse` is the auctioneer role
+any robot (or the operator) plays: it announces, collects bids for the bid window, awards the
+best finite bid, moves to the next bidder on a decline or a silent winner, re-announces after
+the retry interval when nobody can take the task, and after the close monitors the winner
+until it reports the task done — re-auctioning it if the winner falls silent.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import simpy
+
+from engine.messages import Ack, Announce, Award, Bid, Close, Location, TaskType
+
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+
+AUCTION_KINDS = {"scout": "scout_excavator", "excavator": "excavator_hauler"}
+
+
+@dataclass(slots=True)
+class BidRecord:
+    t: float
+    bidder: str
+    utility: float
+    round: int
+
+
+@dataclass(slots=True)
+class AwardRecord:
+    t: float
+    winner: str
+    outcome: str = "pending"  # accepted | declined | timeout
+
+
+@dataclass
+class AuctionRecord:
+    """Everything that happened in one auction, as the observer records it."""
+
+    id: str
+    kind: str
+    auctioneer: str
+    task_type: TaskType
+    location: Location
+    task_id: str
+    opened_at: float
+    policy: str
+    status: str = "open"  # open | closed | cancelled | superseded
+    closed_at: float | None = None
+    allocated_to: str | None = None
+    reannouncements: int = 0
+    round: int = 0
+    reauction_of: str | None = None
+    search_path: tuple[Location, ...] = ()
+    bids: list[BidRecord] = field(default_factory=list)
+    awards: list[AwardRecord] = field(default_factory=list)
+
+    @property
+    def open_time(self) -> float | None:
+        return None if self.closed_at is None else self.closed_at - self.opened_at
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "id": self.id,
+            "kind": self.kind,
+            "auctioneer": self.auctioneer,
+            "task_type": self.task_type,
+            "task_id": self.task_id,
+            "location": [self.location[0], self.location[1]],
+            "status": self.status,
+            "opened_at": self.opened_at,
+            "closed_at": self.closed_at,
+            "allocated_to": self.allocated_to,
+            "reannouncements": self.reannouncements,
+            "reauction_of": self.reauction_of,
+            "policy": self.policy,
+            "bids": [
+                {
+                    "t": b.t,
+                    "bidder": b.bidder,
+                    "utility": b.utility if math.isfinite(b.utility) else None,
+                    "round": b.round,
+                }
+                for b in self.bids
+            ],
+            "awards": [{"t": a.t, "winner": a.winner, "outcome": a.outcome} for a in self.awards],
+        }
+
+
+def rank_bids(bids: Mapping[str, float], excluded: Iterable[str] = ()) -> list[str]:
+    """Bidders by utility, best first; never a -inf bidder; ties go to the smaller name."""
+    skip = set(excluded)
+    finite = [(u, b) for b, u in bids.items() if math.isfinite(u) and b not in skip]
+    finite.sort(key=lambda ub: (-ub[0], ub[1]))
+    return [b for _, b in finite]
+
+
+def select_winner(bids: Mapping[str, float], excluded: Iterable[str] = ()) -> str | None:
+    ranked = rank_bids(bids, excluded)
+    return ranked[0] if ranked else None
+
+
+@dataclass(slots=True)
+class Allocation:
+    """A task this auctioneer handed out and now watches."""
+
+    auction_id: str
+    task_id: str
+    task_type: TaskType
+    location: Location
+    winner: str
+    since: float
+    search_path: tuple[Location, ...] = ()
+
+
+class _Live:
+    """Per-auction working state of the auctioneer (not part of the record)."""
+
+    __slots__ = ("ack", "declined", "live_bids", "process", "waiting_late", "wake")
+
+    def __init__(self) -> None:
+        self.live_bids: dict[str, float] = {}
+        self.declined: set[str] = set()
+        self.ack: tuple[str, simpy.Event] | None = None
+        self.wake: simpy.Event | None = None
+        self.waiting_late = False
+        self.process: Any = None
+
+
+class AuctionHouse:
+    """The auctioneer role of one robot (or of the operator)."""
+
+    def __init__(
+        self, owner: str, ctx: MissionContext, on_allocated: Callable[[Allocation], None]
+    ) -> None:
+        self.owner = owner
+        self.ctx = ctx
+        self._on_allocated = on_allocated
+        self.open_auctions: dict[str, AuctionRecord] = {}
+        self._live: dict[str, _Live] = {}
+        self.allocations: dict[str, Allocation] = {}
+
+    # --- opening and running -------------------------------------------------------------
+    def open(
+        self,
+        task_type: TaskType,
+        location: Location,
+        task_id: str,
+        *,
+        kind: str,
+        search_path: tuple[Location, ...] = (),
+        reauction_of: str | None = None,
+    ) -> AuctionRecord:
+        rec = self.ctx.new_auction(
+            self.owner, kind, task_type, location, task_id, search_path, reauction_of
+        )
+        self.open_auctions[rec.id] = rec
+        live = _Live()
+        self._live[rec.id] = live
+        live.process = self.ctx.env.process(self._run(rec, live))
+        return rec
+
+    def _announce(self, rec: AuctionRecord) -> None:
+        self.ctx.bus.publish(
+            Announce(
+                sender=self.owner,
+                auction_id=rec.id,
+                auctioneer=self.owner,
+                task_type=rec.task_type,
+                location=rec.location,
+                task_id=rec.task_id,
+                opened_at=rec.opened_at,
+                round=rec.round,
+                search_path=rec.search_path,
+            )
+        )
+
+    def _run(self, rec: AuctionRecord, live: _Live) -> Any:
+        env, proto = self.ctx.env, self.ctx.scenario.protocol
+        try:
+            self._announce(rec)
+            yield env.timeout(proto.bid_window_s)
+            while True:
+                for winner in rank_bids(live.live_bids, live.declined):
+                    ack = env.event()
+                    live.ack = (winner, ack)
+                    rec.awards.append(AwardRecord(env.now, winner))
+                    self.ctx.log.emit("auction_awarded", auction_id=rec.id, winner=winner)
+                    self.ctx.bus.publish(
+                        Award(
+                            sender=self.owner,
+                            auction_id=rec.id,
+                            auctioneer=self.owner,
+                            task_type=rec.task_type,
+                            location=rec.location,
+                            winner=winner,
+                        )
+                    )
+                    result = yield ack | env.timeout(proto.ack_timeout_s)
+                    live.ack = None
+                    if result.get(ack):
+                        rec.awards[-1].outcome = "accepted"
+                        self._close(rec, winner)
+                        return
+                    outcome = "declined" if ack in result else "timeout"
+                    rec.awards[-1].outcome = outcome
+                    self.ctx.note_decline(rec, winner, outcome)
+                    live.declined.add(winner)
+                    break  # re-rank: bids may have changed while we waited
+                else:
+                    # Nobody can take it now: wait for a late finite bid or the retry interval.
+                    live.wake = env.event()
+                    live.waiting_late = True
+                    result = yield live.wake | env.timeout(proto.retry_s)
+                    live.waiting_late = False
+                    if live.wake not in result:
+                        rec.round += 1
+                        rec.reannouncements += 1
+                        live.live_bids.clear()
+                        live.declined.clear()
+                        self.ctx.log.emit("auction_reannounced", auction_id=rec.id, round=rec.round)
+                        self._announce(rec)
+                        yield env.timeout(proto.bid_window_s)
+        except simpy.Interrupt:
+            return
+
+    def _close(self, rec: AuctionRecord, winner: str) -> None:
+        self.ctx.bus.publish(
+            Close(
+                sender=self.owner,
+                auction_id=rec.id,
+                auctioneer=self.owner,
+                task_type=rec.task_type,
+                location=rec.location,
+                task_id=rec.task_id,
+                allocated_to=winner,
+            )
+        )
+        self.ctx.close_auction(rec, "closed", winner)
+        self.open_auctions.pop(rec.id, None)
+        self._live.pop(rec.id, None)
+        alloc = Allocation(
+            rec.id, rec.task_id, rec.task_type, rec.location, winner, self.ctx.env.now
+        )
+        alloc.search_path = rec.search_path
+        self.allocations[rec.task_id] = alloc
+        self._on_allocated(alloc)
+
+    def cancel(self, auction_id: str) -> None:
+        rec = self.open_auctions.pop(auction_id, None)
+        live = self._live.pop(auction_id, None)
+        if rec is None:
+            return
+        if live is not None and live.process is not None and live.process.is_alive:
+            live.process.interrupt("cancelled")
+        self.ctx.bus.publish(
+            Close(
+                sender=self.owner,
+                auction_id=rec.id,
+                auctioneer=self.owner,
+                task_type=rec.task_type,
+                location=rec.location,
+                task_id=rec.task_id,
+                allocated_to=None,
+                status="cancelled",
+            )
+        )
+        self.ctx.close_auction(rec, "cancelled", None)
+
+    # --- incoming messages ---------------------------------------------------------------
+    def on_bid(self, msg: Bid) -> None:
+        rec = self.open_auctions.get(msg.auction_id)
+        live = self._live.get(msg.auction_id)
+        if rec is None or live is None or msg.round != rec.round:
+            return
+        rec.bids.append(BidRecord(self.ctx.env.now, msg.bidder, msg.utility, msg.round))
+        live.live_bids[msg.bidder] = msg.utility
+        if math.isfinite(msg.utility):
+            live.declined.discard(msg.bidder)
+            if live.waiting_late and live.wake is not None and not live.wake.triggered:
+                live.wake.succeed()
+
+    def on_ack(self, msg: Ack) -> None:
+        live = self._live.get(msg.auction_id)
+        if live is None or live.ack is None:
+            return
+        winner, ev = live.ack
+        if winner == msg.winner and not ev.triggered:
+            ev.succeed(msg.accepted)
+
+    def reannounce_open(self) -> None:
+        """Tell a newcomer about every auction still open (answers Hello)."""
+        for rec in self.open_auctions.values():
+            self._announce(rec)
+
+    def stop(self) -> None:
+        """The owner failed: its auctions stop where they are (peers adopt them)."""
+        for live in self._live.values():
+            if live.process is not None and live.process.is_alive:
+                live.process.interrupt("auctioneer down")
+        self._live.clear()
+        self.open_auctions.clear()
+        self.allocations.clear()

@@ -1,0 +1,91 @@
+"""The broadcast publish/subscribe bus. Every robot hears every message (SPEC §4).
+
+`Bus` is the interface robots use; `EmbeddedBus` delivers in process through the simulation
+clock, with seeded loss and latency for fault studies. A middleware bus (e.g. Zenoh) would
+implement the same two methods and carry `Message.to_dict()` between processes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol
+
+import numpy as np
+
+from engine.liveness import Liveness
+from engine.messages import Heartbeat, Message
+from engine.scenario import BusConfig
+
+Handler = Callable[[Message], None]
+
+
+class Bus(Protocol):
+    def subscribe(self, name: str, handler: Handler) -> None: ...
+
+    def publish(self, msg: Message) -> None: ...
+
+
+class EmbeddedBus:
+    """In-process broadcast. Each receiver independently may lose or delay a message."""
+
+    def __init__(
+        self,
+        env: Any,
+        config: BusConfig,
+        rng: np.random.Generator,
+        on_publish: Callable[[Message], None],
+        liveness: Liveness,
+    ) -> None:
+        self._env = env
+        self._liveness = liveness
+        self._cfg = config
+        self._rng = rng
+        self._on_publish = on_publish
+        self._subscribers: dict[str, Handler] = {}
+        self.published = 0
+        self.lost = 0
+        self._ideal = config.loss == 0.0 and config.latency_s == 0.0 and config.jitter_s == 0.0
+
+    def subscribe(self, name: str, handler: Handler) -> None:
+        self._subscribers[name] = handler
+
+    def publish(self, msg: Message) -> None:
+        self.published += 1
+        self._on_publish(msg)
+        if isinstance(msg, Heartbeat):
+            self._publish_heartbeat(msg)
+            return
+        receivers = [h for n, h in self._subscribers.items() if n != msg.sender]
+        if self._ideal:
+            ev = self._env.timeout(0.0)
+            ev.callbacks.append(lambda _e: _deliver_all(receivers, msg))
+            return
+        cfg, rng = self._cfg, self._rng
+        for handler in receivers:
+            if cfg.loss > 0.0 and rng.random() < cfg.loss:
+                self.lost += 1
+                continue
+            delay = cfg.latency_s + (cfg.jitter_s * rng.random() if cfg.jitter_s else 0.0)
+            ev = self._env.timeout(delay)
+            ev.callbacks.append(lambda _e, h=handler: h(msg))
+
+    def _publish_heartbeat(self, hb: Heartbeat) -> None:
+        board, cfg = self._liveness, self._cfg
+        serial = board.record_heartbeat(hb)
+        sender = board.index[hb.sender]
+        receivers = np.arange(len(board.names))
+        receivers = receivers[receivers != sender]
+        if cfg.loss > 0.0:
+            kept = self._rng.random(len(receivers)) >= cfg.loss
+            self.lost += int(len(receivers) - kept.sum())
+            receivers = receivers[kept]
+        delay = cfg.latency_s + (cfg.jitter_s * self._rng.random() if cfg.jitter_s else 0.0)
+        ev = self._env.timeout(delay)
+        ev.callbacks.append(
+            lambda _e: board.deliver_heartbeat(hb.sender, serial, receivers, float(self._env.now))
+        )
+
+
+def _deliver_all(receivers: list[Handler], msg: Message) -> None:
+    for h in receivers:
+        h(msg)

@@ -1,0 +1,42 @@
+"""Immutable event records: the engine's only output; persistence and streaming subscribe."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True, slots=True)
+class Event:
+    seq: int
+    t: float
+    kind: str
+    data: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"seq": self.seq, "t": self.t, "kind": self.kind, "data": self.data}
+
+
+Subscriber = Callable[[Event], None]
+
+
+class EventLog:
+    """The ordered log of one run; numbering is the order events happen in."""
+
+    def __init__(self, clock: Callable[[], float]) -> None:
+        self._clock = clock
+        self.events: list[Event] = []
+        self._subscribers: list[Subscriber] = []
+        self.counts: dict[str, int] = {}
+
+    def subscribe(self, fn: Subscriber) -> None:
+        self._subscribers.append(fn)
+
+    def emit(self, kind: str, /, **data: Any) -> Event:
+        ev = Event(len(self.events), self._clock(), kind, data)
+        self.events.append(ev)
+        self.counts[kind] = self.counts.get(kind, 0) + 1
+        for fn in self._subscribers:
+            fn(ev)
+        return ev

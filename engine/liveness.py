@@ -1,0 +1,91 @@
+"""Who has heard whom, and when: each robot's own view of its peers' heartbeats.
+
+Heartbeats are broadcast like every message, but N robots each hearing N heartbeats is
+N² handler calls per period, which dominates large missions. So heartbeat delivery writes
+into this board instead: `heard[r, s]` is when receiver r last heard anything from sender s,
+and r reads the content of the last heartbeat *it* received. Loss is still drawn per
+receiver; latency and jitter are drawn once per heartbeat (shared by all its receivers).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from engine.messages import Heartbeat
+
+HISTORY = 64
+"""Heartbeats kept per sender; a receiver that missed more than this sees none (safe: silent)."""
+
+
+class Liveness:
+    def __init__(self, capacity: int = 16) -> None:
+        self.index: dict[str, int] = {}
+        self.names: list[str] = []
+        self.heard = np.full((capacity, capacity), -np.inf)
+        self.hb_seen = np.full((capacity, capacity), -1, dtype=np.int64)
+        self._history: dict[str, deque[tuple[int, Heartbeat]]] = {}
+        self._hb_serial: dict[str, int] = {}
+
+    def add(self, name: str) -> int:
+        if name in self.index:
+            return self.index[name]
+        i = len(self.names)
+        if i >= self.heard.shape[0]:
+            cap = self.heard.shape[0] * 2
+            heard = np.full((cap, cap), -np.inf)
+            heard[:i, :i] = self.heard[:i, :i]
+            seen = np.full((cap, cap), -1, dtype=np.int64)
+            seen[:i, :i] = self.hb_seen[:i, :i]
+            self.heard, self.hb_seen = heard, seen
+        self.index[name] = i
+        self.names.append(name)
+        self._history[name] = deque(maxlen=HISTORY)
+        self._hb_serial[name] = -1
+        return i
+
+    def record_heartbeat(self, hb: Heartbeat) -> int:
+        """Store a sent heartbeat; returns its serial for delivery."""
+        n = self._hb_serial[hb.sender] + 1
+        self._hb_serial[hb.sender] = n
+        self._history[hb.sender].append((n, hb))
+        return n
+
+    def deliver_heartbeat(self, sender: str, serial: int, receivers: np.ndarray, t: float) -> None:
+        s = self.index[sender]
+        self.heard[receivers, s] = t
+        self.hb_seen[receivers, s] = np.maximum(self.hb_seen[receivers, s], serial)
+
+    def heard_from(self, receiver: str, sender: str, t: float) -> None:
+        r, s = self.index.get(receiver), self.index.get(sender)
+        if r is not None and s is not None:
+            self.heard[r, s] = t
+
+    def last_heard(self, receiver: str, sender: str) -> float:
+        r, s = self.index.get(receiver), self.index.get(sender)
+        if r is None or s is None:
+            return -np.inf
+        return float(self.heard[r, s])
+
+    def last_heartbeat(self, receiver: str, sender: str) -> Heartbeat | None:
+        r, s = self.index.get(receiver), self.index.get(sender)
+        if r is None or s is None:
+            return None
+        want = int(self.hb_seen[r, s])
+        if want < 0:
+            return None
+        for serial, hb in reversed(self._history[sender]):
+            if serial == want:
+                return hb
+            if serial < want:
+                break
+        return None
+
+    def silent(self, receiver: str, now: float, timeout: float) -> list[str]:
+        """Peers this receiver has heard at least once but not within `timeout`."""
+        r = self.index[receiver]
+        n = len(self.names)
+        row = self.heard[r, :n]
+        idx = np.nonzero(np.isfinite(row) & (now - row > timeout))[0]
+        return [self.names[i] for i in idx if i != r]

@@ -1,0 +1,152 @@
+"""The typed, validated messages robots broadcast on the bus (SPEC §4–5, §8)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Location = tuple[float, float]
+TaskType = Literal["excavate", "transport"]
+Name = Annotated[str, Field(min_length=1, max_length=64)]
+
+
+class Message(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    sender: Name
+
+    def to_dict(self) -> dict[str, Any]:
+        d = self.model_dump(mode="json")
+        d["type"] = type(self).__name__.lower()
+        return d
+
+
+class Announce(Message):
+    """[auctioneer, task_type, task_location, status=open]: a task is up for bids."""
+
+    auction_id: str
+    auctioneer: Name
+    task_type: TaskType
+    location: Location
+    task_id: str
+    opened_at: float
+    round: int = 0
+    status: Literal["open"] = "open"
+    search_path: tuple[Location, ...] = ()
+
+
+class Bid(Message):
+    """[auctioneer, bidder, task_location, utility]; utility -inf means 'busy'."""
+
+    auction_id: str
+    auctioneer: Name
+    bidder: Name
+    location: Location
+    utility: float
+    round: int
+
+
+class Award(Message):
+    """[auctioneer, task_type, task_location, status=open, winner]."""
+
+    auction_id: str
+    auctioneer: Name
+    task_type: TaskType
+    location: Location
+    winner: Name
+    status: Literal["open"] = "open"
+
+
+class Ack(Message):
+    """[auctioneer, winner, task_location, accepted|declined]."""
+
+    auction_id: str
+    auctioneer: Name
+    winner: Name
+    location: Location
+    accepted: bool
+
+
+class Close(Message):
+    """[auctioneer, task_type, task_location, status=closed, allocated_to]."""
+
+    auction_id: str
+    auctioneer: Name
+    task_type: TaskType
+    location: Location
+    task_id: str
+    allocated_to: Name | None
+    status: Literal["closed", "cancelled"] = "closed"
+
+
+class Heartbeat(Message):
+    """Liveness and progress: what the robot holds, where it is, how far its scan has come."""
+
+    rtype: str
+    t: float
+    x: float
+    y: float
+    state: str
+    tasks: tuple[str, ...] = ()
+    open_auctions: tuple[str, ...] = ()
+    progress: int = 0
+    path: tuple[Location, ...] = ()
+    load: int = 0
+    done: tuple[str, ...] = ()
+    adopted: tuple[str, ...] = ()
+
+
+class TaskDone(Message):
+    """A winner reports its task finished (or void: nothing was there)."""
+
+    auction_id: str
+    task_id: str
+    outcome: Literal["done", "void", "released"] = "done"
+
+
+class Holding(Message):
+    """'I still hold this task': answers a re-auction of a task the sender is working on."""
+
+    task_id: str
+    auction_id: str
+
+
+class Takeover(Message):
+    """A robot adopts a silent peer's auctions, monitored tasks and (scouts) its unscanned cells."""
+
+    failed: Name
+    cells: tuple[int, ...] = ()
+
+
+class Leaving(Message):
+    """A robot disabled gracefully says goodbye so peers act without waiting for silence."""
+
+    progress: int = 0
+
+
+class Hello(Message):
+    """A robot joins (added or re-enabled); auctioneers re-announce their open auctions."""
+
+    rtype: str
+
+
+class PolicyChange(Message):
+    """The operator switched the allocation policy."""
+
+    policy: str
+
+
+ALL_MESSAGES: tuple[type[Message], ...] = (
+    Announce,
+    Bid,
+    Award,
+    Ack,
+    Close,
+    Heartbeat,
+    TaskDone,
+    Holding,
+    Takeover,
+    Leaving,
+    Hello,
+    PolicyChange,
+)

@@ -1,0 +1,64 @@
+"""The figures SPEC §7 asks for, computed from a run's state and records."""
+
+from __future__ import annotations
+
+import statistics
+from typing import TYPE_CHECKING, Any
+
+from engine.scenario import ROBOT_TYPES
+
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+
+AUCTION_KINDS_REPORTED = ("scout_excavator", "excavator_hauler")
+
+
+def open_time_stats(values: list[float]) -> dict[str, float | int | None]:
+    if not values:
+        return {"count": 0, "mean": None, "p50": None, "max": None}
+    return {
+        "count": len(values),
+        "mean": statistics.fmean(values),
+        "p50": statistics.median(values),
+        "max": max(values),
+    }
+
+
+def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
+    distance = {t: 0.0 for t in ROBOT_TYPES}
+    for r in ctx.robots.values():
+        if r.rtype in distance:
+            distance[r.rtype] += r.distance + (_partial(r))
+    open_times: dict[str, list[float]] = {k: [] for k in AUCTION_KINDS_REPORTED}
+    for rec in ctx.auctions:
+        if rec.status == "closed" and rec.kind in open_times and rec.open_time is not None:
+            open_times[rec.kind].append(rec.open_time)
+    return {
+        "sites_found": ctx.sites_found,
+        "sites_total": len(ctx.sites),
+        "minerals_delivered": ctx.delivered,
+        "minerals_total": ctx.minerals_total,
+        "distance": distance,
+        "distance_total": sum(distance.values()),
+        "auction_open_s": {k: open_time_stats(v) for k, v in open_times.items()},
+        "auctions": len(ctx.auctions),
+        "bids": ctx.bids,
+        "declines": ctx.declines,
+        "reannouncements": sum(rec.reannouncements for rec in ctx.auctions),
+        "messages": ctx.bus.published,
+        "failures": ctx.failures,
+        "reauctions": ctx.reauctions,
+        "minerals_dropped": ctx.dropped,
+        "minerals_recovered": ctx.recovered,
+        "messages_lost": ctx.bus.lost,
+        "planner_queries": ctx.planner.stats.queries,
+        "planner_ompl_queries": ctx.planner.stats.ompl_queries,
+    }
+
+
+def _partial(robot: Any) -> float:
+    """Distance driven so far on the current leg (a live mission mid-drive)."""
+    m = robot.motion
+    if m is None:
+        return 0.0
+    return float(min(m.length, (robot.env.now - m.t0) * m.speed))

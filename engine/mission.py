@@ -1,0 +1,426 @@
+"""One mission: the engine's single public entry point.
+
+Build it from a scenario, a seed and a policy; advance it to any simulation time; read a
+snapshot; give it operator commands at the current time. The command line and the live
+service are both clients of this class. Same scenario, seed and commands (at the same
+simulation times) give the same run, bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable
+from typing import Any, Literal
+
+import numpy as np
+import simpy
+
+from engine.auction import AuctionRecord
+from engine.bus import EmbeddedBus
+from engine.context import MissionContext
+from engine.errors import CommandRejected, UnknownRobotError
+from engine.events import Event
+from engine.messages import PolicyChange
+from engine.metrics import mission_metrics
+from engine.planning import OmplPlanner, PathPlanner, StraightLinePlanner
+from engine.policies import make_policy, resolve_policy
+from engine.robots import OPERATOR, Excavator, Hauler, Operator, Robot, Scout
+from engine.robots.scout import site_task_id
+from engine.scenario import ROBOT_TYPES, Scenario
+from engine.spiral import spiral_routes
+from engine.world import generate_world
+
+PlannerKind = Literal["ompl", "straight"]
+_CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hauler": Hauler}
+
+
+class Mission:
+    def __init__(
+        self,
+        scenario: Scenario,
+        seed: int,
+        policy: str | int = "fcfs",
+        planner: PlannerKind = "ompl",
+    ) -> None:
+        t0 = time.perf_counter()
+        if not isinstance(seed, int) or seed < 0:
+            raise ValueError("seed: must be a whole number >= 0")
+        self.scenario = scenario
+        self.seed = seed
+        self.initial_policy = resolve_policy(policy)
+        world_rng, bus_rng, plan_rng = (
+            np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3)
+        )
+        self.world = generate_world(scenario, world_rng)
+        chosen: PathPlanner = (
+            OmplPlanner(self.world, plan_rng) if planner == "ompl" else StraightLinePlanner()
+        )
+        self.env = simpy.Environment()
+        self.ctx = ctx = MissionContext(
+            scenario, self.world, chosen, self.env, make_policy(self.initial_policy)
+        )
+        ctx.bus = EmbeddedBus(self.env, scenario.bus, bus_rng, ctx.record_message, ctx.liveness)
+        self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
+        self._counts = {t: 0 for t in ROBOT_TYPES}
+        team = scenario.team
+        n_total = team.scouts + team.excavators + team.haulers
+        starts = iter(self._start_positions(n_total))
+        routes = {
+            f"scout-{i + 1}": r
+            for i, r in enumerate(spiral_routes(self.world.grid, self.world.plant, team.scouts))
+        }
+        self.routes = routes
+        robots: list[Robot] = [self.operator]
+        for rtype, n in (
+            ("scout", team.scouts),
+            ("excavator", team.excavators),
+            ("hauler", team.haulers),
+        ):
+            for _ in range(n):
+                robots.append(self._make_robot(rtype, next(starts)))
+        for r in robots:
+            r.start()
+        self.actions: list[dict[str, Any]] = []
+        self.status = "running"
+        self._closed = False
+        self._wall = time.perf_counter() - t0
+
+    # --- construction helpers -------------------------------------------------------------
+    def _start_positions(self, n: int) -> list[tuple[float, float]]:
+        """Robots start on a small ring around the plant, evenly spread."""
+        px, py = self.world.plant
+        rad = self.scenario.start_spread
+        out = []
+        for i in range(n):
+            a = 2 * math.pi * i / max(1, n)
+            x = min(max(px + rad * math.cos(a), 0.0), self.world.width)
+            y = min(max(py + rad * math.sin(a), 0.0), self.world.height)
+            out.append((round(x, 6), round(y, 6)))
+        return out
+
+    def _make_robot(self, rtype: str, pos: tuple[float, float]) -> Robot:
+        self._counts[rtype] += 1
+        name = f"{rtype}-{self._counts[rtype]}"
+        speed = getattr(self.scenario.speeds, rtype)
+        robot: Robot
+        if rtype == "scout":
+            robot = Scout(name, self.ctx, pos, speed, self.routes)
+        else:
+            robot = _CLASSES[rtype](name, self.ctx, pos, speed)
+        self.ctx.robots[name] = robot
+        return robot
+
+    # --- driving ------------------------------------------------------------------------
+    @property
+    def now(self) -> float:
+        return float(self.env.now)
+
+    @property
+    def done(self) -> bool:
+        return self.status != "running"
+
+    @property
+    def policy(self) -> str:
+        return self.ctx.policy.name
+
+    @property
+    def events(self) -> list[Event]:
+        return self.ctx.log.events
+
+    @property
+    def auctions(self) -> list[AuctionRecord]:
+        return self.ctx.auctions
+
+    def subscribe(self, fn: Callable[[Event], None]) -> None:
+        self.ctx.log.subscribe(fn)
+
+    def advance(self, until: float) -> None:
+        """Process every event up to simulation time `until` (clamped to the mission's end)."""
+        if self.done:
+            return
+        t0 = time.perf_counter()
+        env, finished = self.env, self.ctx.finished
+        limit = min(float(until), self.scenario.max_time_s)
+        while not finished.triggered and env.peek() <= limit:
+            env.step()
+        if finished.triggered:
+            self._end("completed")
+        elif limit >= self.scenario.max_time_s:
+            if limit > env.now:
+                env.run(until=limit)
+            self._end("timeout")
+        elif limit > env.now:
+            env.run(until=limit)
+        self._wall += time.perf_counter() - t0
+
+    def run(self) -> dict[str, Any]:
+        self.advance(math.inf)
+        return self.metrics()
+
+    def _end(self, status: str) -> None:
+        self.status = status
+        self.ctx.emit("mission_ended", status=status, makespan_s=self.ctx.finished_at)
+        self.close()
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self.ctx.planner.close()
+
+    # --- reading ------------------------------------------------------------------------
+    def metrics(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "policy": self.initial_policy,
+            "seed": self.seed,
+            "scenario": self.scenario.name,
+            "status": self.status,
+            "completed": self.status == "completed",
+            "makespan_s": self.ctx.finished_at,
+            "sim_time_s": self.now,
+        }
+        out.update(mission_metrics(self.ctx))
+        out["policy_changes"] = sum(1 for a in self.actions if a["kind"] == "set_policy")
+        out["wall_s"] = self._wall
+        return out
+
+    def world_map(self) -> dict[str, Any]:
+        return self.world.to_dict()
+
+    def _robot_dict(self, r: Robot, full: bool) -> dict[str, Any]:
+        (x, y), heading = r.position()
+        d: dict[str, Any] = {
+            "name": r.name,
+            "type": r.rtype,
+            "state": r.state,
+            "x": x,
+            "y": y,
+            "heading": heading,
+            "load": r.load(),
+            "alive": r.alive,
+        }
+        if full:
+            cur = r.current
+            d["task"] = (
+                None
+                if cur is None
+                else f"{cur.task_type}@({cur.location[0]:.1f},{cur.location[1]:.1f})"
+            )
+            d["distance"] = r.distance
+            d["path"] = [[p[0], p[1]] for p in r.remaining_route()]
+            d["enabled"] = r.enabled and not r.leaving
+            d["partner"] = (
+                _partner(r.name) if self.ctx.policy.coalitions() and r.rtype != "scout" else None
+            )
+        return d
+
+    def _robots(self) -> Iterable[Robot]:
+        return (r for r in self.ctx.robots.values() if r.rtype != "operator")
+
+    def counters(self) -> dict[str, int]:
+        ctx = self.ctx
+        return {
+            "sites_found": ctx.sites_found,
+            "sites_total": len(ctx.sites),
+            "minerals_delivered": ctx.delivered,
+            "minerals_total": ctx.minerals_total,
+            "auctions": len(ctx.auctions),
+            "bids": ctx.bids,
+            "declines": ctx.declines,
+            "reannouncements": sum(a.reannouncements for a in ctx.auctions),
+            "messages": ctx.bus.published,
+        }
+
+    def frame(self) -> dict[str, Any]:
+        return {
+            "t": self.now,
+            "status": self.status,
+            "policy": self.policy,
+            "robots": [self._robot_dict(r, False) for r in self._robots()],
+            "scanned": self.ctx.scanned_b64(),
+            "scanned_count": self.ctx.scanned_count,
+            "counters": self.counters(),
+        }
+
+    def robot_list(self) -> list[dict[str, Any]]:
+        return [self._robot_dict(r, True) for r in self._robots()]
+
+    def snapshot(self) -> dict[str, Any]:
+        ctx = self.ctx
+        return {
+            "t": self.now,
+            "status": self.status,
+            "policy": self.policy,
+            "scenario": self.scenario.name,
+            "seed": self.seed,
+            "robots": self.robot_list(),
+            "sites": [
+                {
+                    "id": s.id,
+                    "x": s.x,
+                    "y": s.y,
+                    "found": s.found_at is not None,
+                    "found_at": s.found_at,
+                    "remaining": s.remaining,
+                    "total": s.total,
+                    "excavator": s.worker,
+                }
+                for s in ctx.sites
+            ],
+            "dropped": [{"x": g.x, "y": g.y} for g in ctx.ground],
+            "scanned": ctx.scanned_b64(),
+            "scanned_count": ctx.scanned_count,
+            "cells_total": len(ctx.scanned),
+            "auctions": [a.to_dict() for a in ctx.auctions if a.status == "open"],
+            "counters": self.counters(),
+        }
+
+    # --- operator commands --------------------------------------------------------------
+    def _record(self, kind: str, **args: Any) -> None:
+        self.actions.append({"t": self.now, "kind": kind, "args": args})
+
+    def _check_running(self) -> None:
+        if self.done:
+            raise CommandRejected(f"mission has ended ({self.status})")
+
+    def robot(self, name: str) -> Robot:
+        r = self.ctx.robots.get(name)
+        if r is None or r.rtype == "operator":
+            raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
+        return r
+
+    def set_policy(self, policy: str | int) -> str:
+        self._check_running()
+        try:
+            name = resolve_policy(policy)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
+        self._record("set_policy", policy=name)
+        old = self.ctx.policy.name
+        self.ctx.policy = make_policy(name)
+        self.ctx.bus.publish(PolicyChange(sender=OPERATOR, policy=name))
+        self.ctx.emit("policy_changed", old=old, new=name)
+        for r in self._robots():
+            r.wake()
+            r.consider_bids()
+        return name
+
+    def disable_robot(self, name: str, mode: str = "graceful") -> None:
+        self._check_running()
+        r = self.robot(name)
+        if mode not in ("graceful", "abrupt"):
+            raise CommandRejected("mode: must be 'graceful' or 'abrupt'")
+        if not r.alive or r.leaving:
+            raise CommandRejected(f"robot {name!r} is already {r.state}")
+        self._record("disable_robot", name=name, mode=mode)
+        if mode == "abrupt":
+            self.ctx.failures += 1
+            r.fail()
+            self.ctx.emit("robot_failed", robot=name, x=r.pos[0], y=r.pos[1])
+        else:
+            r.disable()
+            self.ctx.emit("robot_disabled", robot=name)
+
+    def enable_robot(self, name: str) -> None:
+        self._check_running()
+        r = self.robot(name)
+        if r.alive and not r.leaving:
+            raise CommandRejected(f"robot {name!r} is not disabled")
+        self._record("enable_robot", name=name)
+        if r.alive:
+            r.leaving = False  # it had not finished leaving: it simply stays
+        else:
+            r.enable()
+        self.ctx.emit("robot_enabled", robot=name)
+
+    def add_robot(self, rtype: str, position: tuple[float, float] | None = None) -> str:
+        self._check_running()
+        if rtype not in _CLASSES:
+            raise CommandRejected("type: must be one of scout, excavator, hauler")
+        pos = self._free_point(position, "position") if position is not None else None
+        if pos is None:
+            pos = self._start_positions(1)[0]
+        self._record("add_robot", type=rtype, position=None if position is None else list(pos))
+        robot = self._make_robot(rtype, pos)
+        robot.start(joined_late=True)
+        self.ctx.emit("robot_added", robot=robot.name, type=rtype, x=pos[0], y=pos[1])
+        return robot.name
+
+    def inject_task(self, task_type: str = "excavate", location: Iterable[float] = ()) -> str:
+        self._check_running()
+        if task_type not in ("excavate", "transport"):
+            raise CommandRejected("type: must be 'excavate' or 'transport'")
+        x, y = self._free_point(tuple(location), "location")  # type: ignore[arg-type]
+        task_id = f"{task_type}@{x:.3f},{y:.3f}"
+        if task_type == "excavate":
+            # snap to a site the robots know of, so the operator can point roughly at one
+            near = [
+                s
+                for s in self.ctx.sites
+                if s.found_at is not None
+                and math.hypot(s.x - x, s.y - y) <= self.scenario.scan_radius
+            ]
+            if near:
+                s = min(near, key=lambda s: (math.hypot(s.x - x, s.y - y), s.id))
+                x, y, task_id = s.x, s.y, site_task_id(s.x, s.y)
+        self._record("inject_task", type=task_type, location=[x, y])
+        rec = self.operator.house.open(task_type, (x, y), task_id, kind="operator")  # type: ignore[arg-type]
+        self.ctx.emit("task_injected", auction_id=rec.id, task_type=task_type, x=x, y=y)
+        return rec.id
+
+    def _free_point(self, p: tuple[float, ...], field: str) -> tuple[float, float]:
+        if len(p) != 2 or not all(isinstance(v, int | float) and math.isfinite(v) for v in p):
+            raise CommandRejected(f"{field}: must be two finite numbers [x, y]")
+        x, y = float(p[0]), float(p[1])
+        if not (0 <= x <= self.world.width and 0 <= y <= self.world.height):
+            raise CommandRejected(
+                f"{field}: ({x:g}, {y:g}) is outside the area "
+                f"0..{self.world.width:g} × 0..{self.world.height:g}"
+            )
+        if not self.world.is_free(x, y):
+            raise CommandRejected(f"{field}: ({x:g}, {y:g}) lies in a crater")
+        return x, y
+
+    def apply(self, action: dict[str, Any]) -> Any:
+        """Replay one recorded action at its simulation time."""
+        t = float(action["t"])
+        if t < self.now - 1e-9:
+            raise CommandRejected(f"t: action at {t} lies before the mission's time {self.now}")
+        self.advance(t)
+        args = dict(action.get("args", {}))
+        kind = action["kind"]
+        if kind == "set_policy":
+            return self.set_policy(args["policy"])
+        if kind == "disable_robot":
+            return self.disable_robot(args["name"], args.get("mode", "graceful"))
+        if kind == "enable_robot":
+            return self.enable_robot(args["name"])
+        if kind == "add_robot":
+            pos = args.get("position")
+            return self.add_robot(args["type"], None if pos is None else (pos[0], pos[1]))
+        if kind == "inject_task":
+            return self.inject_task(args["type"], args["location"])
+        raise CommandRejected(f"kind: unknown action {kind!r}")
+
+
+def _partner(name: str) -> str | None:
+    from engine.policies import coalition_partner
+
+    return coalition_partner(name)
+
+
+def run_mission(
+    scenario: Scenario,
+    seed: int,
+    policy: str | int = "fcfs",
+    actions: Iterable[dict[str, Any]] = (),
+    planner: PlannerKind = "ompl",
+) -> dict[str, Any]:
+    """Run one mission headless to its end and return its metrics."""
+    m = Mission(scenario, seed, policy, planner)
+    try:
+        for action in sorted(actions, key=lambda a: float(a["t"])):
+            m.apply(action)
+        return m.run()
+    finally:
+        m.close()

@@ -1,0 +1,175 @@
+"""Path planning behind one small interface: OMPL's RRT-Connect for real runs, a straight line
+for unit tests.
+
+Bid costs and driven paths come from the same planner, so a bid is the honest length of
+the path the robot would drive. A collision-free straight segment is returned directly (it is
+the shortest path; RRT-Connect plus simplification converges to it anyway), and repeated
+queries are cached per run.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from engine.geometry import Point, path_length, segment_point_distance
+from engine.world import CLEARANCE, World
+
+Path = tuple[Point, ...]
+
+
+class PlanningError(RuntimeError):
+    """No collision-free path was found."""
+
+
+@dataclass
+class PlannerStats:
+    queries: int = 0
+    straight: int = 0
+    cached: int = 0
+    ompl_queries: int = 0
+    ompl_seconds: list[float] = field(default_factory=list)
+
+
+class PathPlanner(Protocol):
+    stats: PlannerStats
+
+    def plan(self, start: Point, goal: Point) -> Path: ...
+
+    def close(self) -> None: ...
+
+
+class StraightLinePlanner:
+    """Straight lines, for worlds without obstacles and fast unit tests."""
+
+    def __init__(self) -> None:
+        self.stats = PlannerStats()
+
+    def plan(self, start: Point, goal: Point) -> Path:
+        self.stats.queries += 1
+        self.stats.straight += 1
+        return (start, goal)
+
+    def close(self) -> None:
+        pass
+
+
+class CraterIndex:
+    """Craters bucketed on a coarse grid, so segment tests look only at nearby craters."""
+
+    def __init__(self, world: World, bucket: float = 20.0) -> None:
+        self.bucket = bucket
+        self.buckets: dict[tuple[int, int], list[tuple[float, float, float]]] = defaultdict(list)
+        for c in world.craters:
+            r = c.r + CLEARANCE
+            for bx in range(int((c.x - r) // bucket), int((c.x + r) // bucket) + 1):
+                for by in range(int((c.y - r) // bucket), int((c.y + r) // bucket) + 1):
+                    self.buckets[(bx, by)].append((c.x, c.y, r))
+
+    def _near(self, x0: float, y0: float, x1: float, y1: float) -> set[tuple[float, float, float]]:
+        b = self.bucket
+        out: set[tuple[float, float, float]] = set()
+        for bx in range(int(min(x0, x1) // b), int(max(x0, x1) // b) + 1):
+            for by in range(int(min(y0, y1) // b), int(max(y0, y1) // b) + 1):
+                out.update(self.buckets.get((bx, by), ()))
+        return out
+
+    def point_free(self, x: float, y: float) -> bool:
+        return all(math.hypot(x - cx, y - cy) > r for cx, cy, r in self._near(x, y, x, y))
+
+    def segment_free(self, a: Point, b: Point) -> bool:
+        return all(
+            segment_point_distance(a, b, (cx, cy)) > r
+            for cx, cy, r in self._near(a[0], a[1], b[0], b[1])
+        )
+
+
+class OmplPlanner:
+    """RRT-Connect over the world's craters, with an exact segment-vs-circle motion check."""
+
+    def __init__(self, world: World, rng: np.random.Generator, time_limit: float = 0.05) -> None:
+        from ompl import base as ob
+        from ompl import geometric as og
+        from ompl import util as ou
+
+        ou.setLogLevel(ou.LogLevel.LOG_NONE)
+        self.stats = PlannerStats()
+        self._rng = rng
+        self._time_limit = time_limit
+        self._index = CraterIndex(world)
+        self._cache: dict[tuple[Point, Point], Path] = {}
+        self._ou = ou
+        index = self._index
+
+        class ExactMotion(ob.MotionValidator):  # type: ignore[misc]
+            def checkMotion(self, s1: Any, s2: Any, *rest: Any) -> bool:
+                return index.segment_free((s1[0], s1[1]), (s2[0], s2[1]))
+
+        space = ob.RealVectorStateSpace(2)
+        bounds = ob.RealVectorBounds(2)
+        bounds.setLow(0, 0.0)
+        bounds.setHigh(0, world.width)
+        bounds.setLow(1, 0.0)
+        bounds.setHigh(1, world.height)
+        space.setBounds(bounds)
+        ss = og.SimpleSetup(space)
+        si = ss.getSpaceInformation()
+        ss.setStateValidityChecker(lambda s: index.point_free(s[0], s[1]))
+        self._motion = ExactMotion(si)
+        si.setMotionValidator(self._motion)
+        ss.setPlanner(og.RRTConnect(si))
+        ss.setup()
+        self._space, self._ss = space, ss
+
+    def plan(self, start: Point, goal: Point) -> Path:
+        self.stats.queries += 1
+        if self._index.segment_free(start, goal):
+            self.stats.straight += 1
+            return (start, goal)
+        key = (start, goal)
+        hit = self._cache.get(key)
+        if hit is not None:
+            self.stats.cached += 1
+            return hit
+        path = self._solve(start, goal)
+        self._cache[key] = path
+        return path
+
+    def _solve(self, start: Point, goal: Point) -> Path:
+        ss, space = self._ss, self._space
+        for attempt in range(4):
+            self._ou.RNG.setSeed(int(self._rng.integers(1, 2**31 - 1)))
+            ss.clear()
+            st, gl = space.allocState(), space.allocState()
+            st[0], st[1] = start
+            gl[0], gl[1] = goal
+            ss.setStartAndGoalStates(st, gl)
+            t0 = time.perf_counter()  # wall time for the benchmark's statistics only
+            ss.solve(self._time_limit * (attempt + 1))
+            solved = ss.haveExactSolutionPath()
+            if solved:
+                ss.simplifySolution()
+                geo = ss.getSolutionPath()
+                pts = tuple((float(s[0]), float(s[1])) for s in geo.getStates())
+                del geo
+            self.stats.ompl_queries += 1
+            self.stats.ompl_seconds.append(time.perf_counter() - t0)
+            if solved and len(pts) >= 2:
+                return (start, *pts[1:-1], goal)
+        raise PlanningError(f"no path from {start} to {goal}")
+
+    def close(self) -> None:
+        """Release OMPL objects now rather than at interpreter exit."""
+        self.__dict__.pop("_ss", None)
+        self.__dict__.pop("_motion", None)
+        self.__dict__.pop("_space", None)
+
+
+def plan_length(planner: PathPlanner, start: Point, goal: Point) -> tuple[Path, float]:
+    path = planner.plan(start, goal)
+    return path, path_length(path)

@@ -1,0 +1,637 @@
+"""What every robot does: move, listen, bid, accept, keep its peers' liveness, fail and return.
+
+A robot knows only what reached it on the bus and what it senses where it stands. Its
+behaviour (scan, dig, haul) lives in a subclass as a simpy process; the protocol roles
+(bidder here, auctioneer in `AuctionHouse`) are shared.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import simpy
+
+from engine.auction import AUCTION_KINDS, Allocation, AuctionHouse
+from engine.geometry import Point, path_length, point_along, remaining_path
+from engine.messages import (
+    Ack,
+    Announce,
+    Award,
+    Bid,
+    Close,
+    Heartbeat,
+    Hello,
+    Holding,
+    Leaving,
+    Message,
+    Takeover,
+    TaskDone,
+    TaskType,
+)
+from engine.planning import Path, PlanningError
+from engine.policies import OpenAuction, PendingAward, coalition_partner
+
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+
+DONE_MEMORY = 8
+"""How many finished task ids a heartbeat repeats, for auctioneers that missed a TaskDone."""
+
+
+@dataclass(frozen=True, slots=True)
+class Assignment:
+    """A task this robot won and was confirmed for."""
+
+    auction_id: str
+    auctioneer: str
+    task_type: TaskType
+    task_id: str
+    location: Point
+    search_path: tuple[Point, ...] = ()
+
+
+@dataclass(slots=True)
+class Motion:
+    t0: float
+    path: Path
+    length: float
+    speed: float
+
+
+class Robot:
+    rtype = "robot"
+    capability: TaskType | None = None
+
+    def __init__(self, name: str, ctx: MissionContext, pos: Point, speed: float) -> None:
+        self.name = name
+        self.ctx = ctx
+        self.env = ctx.env
+        self.pos = pos
+        self.heading = 0.0
+        self.speed = speed
+        self.state = "idle"
+        self.alive = True
+        self.enabled = True
+        self.leaving = False
+        self.distance = 0.0
+        self.motion: Motion | None = None
+        self.house = AuctionHouse(name, ctx, self._on_allocated)
+        self.current: Assignment | None = None
+        self.queue: deque[Assignment] = deque()
+        self._procs: list[Any] = []
+        self._wake_event: simpy.Event | None = None
+        self._reset_knowledge()
+        ctx.liveness.add(name)
+        ctx.bus.subscribe(name, self.on_message)
+
+    def _reset_knowledge(self) -> None:
+        self.open_auctions: dict[str, OpenAuction] = {}
+        self.my_bids: dict[str, tuple[int, float]] = {}
+        self.reserved: OpenAuction | None = None
+        self.pending_awards: list[PendingAward] = []
+        self.down: set[str] = set()
+        self.peer_open: dict[str, dict[str, OpenAuction]] = {}
+        self.peer_alloc: dict[str, dict[str, Allocation]] = {}
+        self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
+        self.done_ids: deque[str] = deque(maxlen=DONE_MEMORY)
+
+    # --- lifecycle ----------------------------------------------------------------------
+    def start(self, joined_late: bool = False) -> None:
+        self._spawn(self._life_guarded())
+        self._spawn(self._tick())
+        if joined_late:
+            self.ctx.bus.publish(Hello(sender=self.name, rtype=self.rtype))
+
+    def _spawn(self, gen: Any) -> None:
+        self._procs.append(self.env.process(gen))
+
+    def _life_guarded(self) -> Any:
+        try:
+            yield from self.life()
+        except simpy.Interrupt:
+            return
+
+    def life(self) -> Any:
+        """The robot's behaviour; subclasses override."""
+        yield self.env.event()
+
+    def _tick(self) -> Any:
+        proto = self.ctx.scenario.protocol
+        offset = (self.ctx.liveness.index[self.name] % 10) * proto.heartbeat_s / 10
+        try:
+            yield self.env.timeout(offset)
+            while True:
+                self.heartbeat()
+                self.check_peers()
+                yield self.env.timeout(proto.heartbeat_s)
+        except simpy.Interrupt:
+            return
+
+    @property
+    def participating(self) -> bool:
+        return self.alive and self.enabled and not self.leaving
+
+    def wake(self) -> None:
+        ev = self._wake_event
+        if ev is not None and not ev.triggered:
+            ev.succeed()
+
+    def wait_for_wake(self) -> simpy.Event:
+        self._wake_event = self.env.event()
+        return self._wake_event
+
+    # --- motion -------------------------------------------------------------------------
+    def position(self, t: float | None = None) -> tuple[Point, float]:
+        m = self.motion
+        if m is None:
+            return self.pos, self.heading
+        t = self.env.now if t is None else t
+        return point_along(m.path, min(m.length, max(0.0, (t - m.t0) * m.speed)))
+
+    def remaining_route(self) -> list[Point]:
+        m = self.motion
+        if m is None:
+            return []
+        return remaining_path(m.path, min(m.length, (self.env.now - m.t0) * m.speed))
+
+    def drive(self, path: Path) -> Any:
+        """Drive along a path at this robot's speed; interruptible only by failure."""
+        length = path_length(path)
+        if length <= 0.0:
+            self.pos = path[-1]
+            return
+        self.motion = Motion(float(self.env.now), path, length, self.speed)
+        yield self.env.timeout(length / self.speed)
+        self._end_motion(length)
+
+    def _end_motion(self, travelled: float | None = None) -> None:
+        m = self.motion
+        if m is None:
+            return
+        if travelled is None:
+            travelled = min(m.length, (self.env.now - m.t0) * m.speed)
+        self.pos, self.heading = point_along(m.path, travelled)
+        self.distance += travelled
+        self.motion = None
+
+    def go_to(self, goal: Point) -> Any:
+        yield from self.drive(self.ctx.planner.plan(self.pos, goal))
+
+    # --- messages -----------------------------------------------------------------------
+    def on_message(self, msg: Message) -> None:
+        if not self.alive:
+            return
+        self.ctx.liveness.heard_from(self.name, msg.sender, float(self.env.now))
+        if msg.sender in self.down:
+            self.down.discard(msg.sender)
+        handler = _HANDLERS.get(type(msg))
+        if handler is not None:
+            handler(self, msg)
+
+    def _on_announce(self, msg: Announce) -> None:
+        info = OpenAuction(
+            msg.auction_id,
+            msg.auctioneer,
+            msg.task_type,
+            msg.location,
+            msg.task_id,
+            msg.opened_at,
+            msg.round,
+            msg.search_path,
+        )
+        if self.ctx.robots.get(msg.sender, self).rtype == self.rtype:
+            self.peer_open.setdefault(msg.sender, {})[msg.auction_id] = info
+        # a duplicate auction for a task I am auctioning: the smaller name keeps it
+        for rec in list(self.house.open_auctions.values()):
+            if rec.task_id == msg.task_id and rec.id != msg.auction_id and msg.sender < self.name:
+                self.house.cancel(rec.id)
+        if self.current is not None and self.current.task_id == msg.task_id:
+            self.ctx.bus.publish(
+                Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
+            )
+            return
+        self.on_task_heard(info)
+        if msg.task_type == self.capability:
+            self.open_auctions[msg.auction_id] = info
+            self.consider_bids()
+
+    def on_task_heard(self, info: OpenAuction) -> None:
+        """Hook: any announcement (scouts learn of sites their peers found)."""
+
+    def _on_bid(self, msg: Bid) -> None:
+        if msg.auctioneer == self.name:
+            self.house.on_bid(msg)
+
+    def _on_ack(self, msg: Ack) -> None:
+        if msg.auctioneer == self.name:
+            self.house.on_ack(msg)
+
+    def _on_award(self, msg: Award) -> None:
+        if msg.winner != self.name:
+            return
+        info = self.open_auctions.get(msg.auction_id)
+        bid = self.my_bids.get(msg.auction_id)
+        if info is None or bid is None or not self.can_take():
+            self._answer(msg.auction_id, msg.auctioneer, msg.location, False)
+            return
+        award = PendingAward(info, bid[1])
+        if self.ctx.policy.collects_awards():
+            self.pending_awards.append(award)
+            if len(self.pending_awards) == 1:
+                self._spawn(self._resolve_awards())
+        else:
+            self._accept(award)
+
+    def _resolve_awards(self) -> Any:
+        yield self.env.timeout(self.ctx.scenario.protocol.award_collect_s)
+        awards, self.pending_awards = self.pending_awards, []
+        if not awards:
+            return
+        best = self.ctx.policy.choose_award(awards) if self.can_take() else None
+        for a in awards:
+            if a is best:
+                self._accept(a)
+            else:
+                self._answer(a.auction.auction_id, a.auction.auctioneer, a.auction.location, False)
+
+    def _accept(self, award: PendingAward) -> None:
+        a = award.auction
+        self.reserved = a
+        self._answer(a.auction_id, a.auctioneer, a.location, True)
+        self._spawn(self._reservation_timer(a))
+
+    def _answer(self, auction_id: str, auctioneer: str, location: Point, yes: bool) -> None:
+        self.ctx.bus.publish(
+            Ack(
+                sender=self.name,
+                auction_id=auction_id,
+                auctioneer=auctioneer,
+                winner=self.name,
+                location=location,
+                accepted=yes,
+            )
+        )
+
+    def _reservation_timer(self, a: OpenAuction) -> Any:
+        """An accepted award not confirmed by a Close in time is let go (the Close was lost)."""
+        cfg = self.ctx.scenario
+        wait = 2 * cfg.protocol.ack_timeout_s + 2 * (cfg.bus.latency_s + cfg.bus.jitter_s)
+        try:
+            yield self.env.timeout(wait)
+        except simpy.Interrupt:
+            return
+        if self.reserved is a:
+            self.reserved = None
+            self.consider_bids()
+
+    def _on_close(self, msg: Close) -> None:
+        info = self.open_auctions.pop(msg.auction_id, None)
+        self.my_bids.pop(msg.auction_id, None)
+        peer = self.peer_open.get(msg.sender)
+        if peer is not None:
+            peer.pop(msg.auction_id, None)
+            if msg.allocated_to is not None:
+                self.peer_alloc.setdefault(msg.sender, {})[msg.task_id] = Allocation(
+                    msg.auction_id,
+                    msg.task_id,
+                    msg.task_type,
+                    msg.location,
+                    msg.allocated_to,
+                    float(self.env.now),
+                )
+        self.on_close_heard(msg)
+        if self.reserved is not None and self.reserved.auction_id == msg.auction_id:
+            reserved, self.reserved = self.reserved, None
+            if msg.allocated_to == self.name and self.alive:
+                self.assign(
+                    Assignment(
+                        reserved.auction_id,
+                        reserved.auctioneer,
+                        reserved.task_type,
+                        reserved.task_id,
+                        reserved.location,
+                        reserved.search_path,
+                    )
+                )
+        elif info is not None or msg.allocated_to is not None:
+            self.consider_bids()
+
+    def on_close_heard(self, msg: Close) -> None:
+        """Hook: subclasses track what others were allocated (coalition partners)."""
+
+    def _on_task_done(self, msg: TaskDone) -> None:
+        for allocs in self.peer_alloc.values():
+            allocs.pop(msg.task_id, None)
+        alloc = self.house.allocations.pop(msg.task_id, None)
+        if alloc is not None and msg.outcome == "released":
+            self.reauction(alloc, None)
+        self.on_task_done_heard(msg)
+
+    def on_task_done_heard(self, msg: TaskDone) -> None:
+        """Hook for subclasses."""
+
+    def _on_holding(self, msg: Holding) -> None:
+        for rec in list(self.house.open_auctions.values()):
+            if rec.task_id == msg.task_id:
+                self.house.cancel(rec.id)
+                self.house.allocations[msg.task_id] = Allocation(
+                    rec.id, rec.task_id, rec.task_type, rec.location, msg.sender, self.env.now
+                )
+
+    def _on_takeover(self, msg: Takeover) -> None:
+        mine = self.adopted.get(msg.failed)
+        if mine is not None and msg.sender < self.name:
+            for aid in mine:
+                self.house.cancel(aid)
+            for tid, alloc in list(self.house.allocations.items()):
+                if alloc.auction_id in mine:
+                    del self.house.allocations[tid]
+            del self.adopted[msg.failed]
+            self.on_adoption_undone(msg.failed)
+        self.peer_open.pop(msg.failed, None)
+        self.peer_alloc.pop(msg.failed, None)
+        self.on_takeover_heard(msg)
+
+    def on_adoption_undone(self, failed: str) -> None:
+        """Hook: a peer with a smaller name adopted `failed` too; it keeps the work."""
+
+    def on_takeover_heard(self, msg: Takeover) -> None:
+        """Hook for subclasses."""
+
+    def _on_leaving(self, msg: Leaving) -> None:
+        if msg.sender not in self.down:
+            self.down.add(msg.sender)
+            self.peer_down(msg.sender)
+
+    def _on_hello(self, msg: Hello) -> None:
+        self.house.reannounce_open()
+
+    # --- bidding ------------------------------------------------------------------------
+    def busy(self) -> bool:
+        return self.reserved is not None or self.current is not None or bool(self.queue)
+
+    def can_take(self) -> bool:
+        return self.participating and not self.busy()
+
+    def in_coalition(self) -> bool:
+        """Paired with a live partner under a coalition policy (Policy 2)."""
+        if not self.ctx.policy.coalitions():
+            return False
+        partner = coalition_partner(self.name)
+        return partner is not None and self.peer_alive(partner)
+
+    def peer_alive(self, name: str) -> bool:
+        heard = self.ctx.liveness.last_heard(self.name, name)
+        timeout = self.ctx.scenario.protocol.failure_timeout_s
+        return name not in self.down and self.env.now - heard <= timeout
+
+    def consider_bids(self) -> None:
+        if not self.participating or self.capability is None:
+            return
+        auctions = [a for a in self.open_auctions.values() if a.auctioneer not in self.down]
+        if not auctions:
+            return
+        targets = self.ctx.policy.bid_targets(self.rtype, self.in_coalition(), auctions)
+        busy = self.busy()
+        for a in targets:
+            prev = self.my_bids.get(a.auction_id)
+            if busy:
+                if prev is None or prev[0] != a.round:
+                    self._bid(a, -math.inf)
+            elif prev is None or prev[0] != a.round or not math.isfinite(prev[1]):
+                self._bid(a, -self.cost_to(a))
+
+    def cost_to(self, a: OpenAuction) -> float:
+        """Length of the path this robot would drive to the task (SPEC §5.2); inf if none."""
+        try:
+            return path_length(self.ctx.planner.plan(self.pos, a.location))
+        except PlanningError:
+            return math.inf
+
+    def _bid(self, a: OpenAuction, utility: float) -> None:
+        self.my_bids[a.auction_id] = (a.round, utility)
+        self.ctx.bus.publish(
+            Bid(
+                sender=self.name,
+                auction_id=a.auction_id,
+                auctioneer=a.auctioneer,
+                bidder=self.name,
+                location=a.location,
+                utility=utility,
+                round=a.round,
+            )
+        )
+
+    # --- tasks --------------------------------------------------------------------------
+    def assign(self, a: Assignment) -> None:
+        self.queue.append(a)
+        self.ctx.emit(
+            "task_started",
+            robot=self.name,
+            task_id=a.task_id,
+            task_type=a.task_type,
+            auction_id=a.auction_id,
+        )
+        self.wake()
+
+    def finish(self, a: Assignment, outcome: str = "done") -> None:
+        self.current = None
+        self.done_ids.append(a.task_id)
+        self.ctx.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
+        self.ctx.bus.publish(
+            TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)
+        )
+        self.consider_bids()
+
+    # --- liveness, monitoring, adoption ---------------------------------------------------
+    def heartbeat(self) -> None:
+        pos, _ = self.position()
+        tasks = [a.task_id for a in self.queue]
+        if self.current is not None:
+            tasks.insert(0, self.current.task_id)
+        self.ctx.bus.publish(
+            Heartbeat(
+                sender=self.name,
+                rtype=self.rtype,
+                t=float(self.env.now),
+                x=pos[0],
+                y=pos[1],
+                state=self.state,
+                tasks=tuple(tasks),
+                open_auctions=tuple(self.house.open_auctions),
+                progress=self.progress(),
+                path=tuple(self.remaining_route()[:16]),
+                load=self.load(),
+                done=tuple(self.done_ids),
+                adopted=tuple(self.adopted),
+            )
+        )
+
+    def progress(self) -> int:
+        return 0
+
+    def load(self) -> int:
+        return 0
+
+    def check_peers(self) -> None:
+        proto = self.ctx.scenario.protocol
+        now = float(self.env.now)
+        board = self.ctx.liveness
+        for peer in board.silent(self.name, now, proto.failure_timeout_s):
+            if peer not in self.down:
+                self.down.add(peer)
+                self.peer_down(peer)
+        # an auction whose auctioneer no longer lists it has closed (we missed the Close)
+        for aid, info in list(self.open_auctions.items()):
+            hb = board.last_heartbeat(self.name, info.auctioneer)
+            if hb is not None and hb.t > info.opened_at + 1e-9 and aid not in hb.open_auctions:
+                del self.open_auctions[aid]
+        # a winner that neither lists a task nor reports it done has dropped it
+        grace = 2 * proto.heartbeat_s + proto.ack_timeout_s
+        for tid, alloc in list(self.house.allocations.items()):
+            hb = board.last_heartbeat(self.name, alloc.winner)
+            if hb is None or hb.t < alloc.since + grace:
+                continue
+            if tid in hb.done:
+                del self.house.allocations[tid]
+            elif tid not in hb.tasks:
+                del self.house.allocations[tid]
+                self.reauction(alloc, hb)
+
+    def peer_down(self, peer: str) -> None:
+        """`peer` fell silent or left: re-auction what it held from me, adopt its duties."""
+        self.ctx.emit("failure_detected", by=self.name, robot=peer)
+        board = self.ctx.liveness
+        for tid, alloc in list(self.house.allocations.items()):
+            if alloc.winner == peer:
+                del self.house.allocations[tid]
+                self.reauction(alloc, board.last_heartbeat(self.name, peer))
+        for aid, info in list(self.open_auctions.items()):
+            if info.auctioneer == peer:
+                del self.open_auctions[aid]
+        if self.reserved is not None and self.reserved.auctioneer == peer:
+            self.reserved = None
+        peer_robot = self.ctx.robots.get(peer)
+        if peer_robot is not None and peer_robot.rtype == self.rtype and self.is_adopter(peer):
+            self.adopt(peer)
+        self.consider_bids()
+
+    def is_adopter(self, peer: str) -> bool:
+        """The smallest-named live robot of my type adopts a silent peer."""
+        if not self.participating:
+            return False
+        for name in self.ctx.robot_type_names(self.rtype):
+            if name == peer or name in self.down:
+                continue
+            if name == self.name:
+                return True
+            if self.peer_alive(name):
+                return False
+        return False
+
+    def adopt(self, peer: str) -> None:
+        opened: list[str] = []
+        kind = AUCTION_KINDS.get(self.rtype, "operator")
+        for info in self.peer_open.pop(peer, {}).values():
+            rec = self.house.open(
+                info.task_type,
+                info.location,
+                info.task_id,
+                kind=kind,
+                search_path=info.search_path,
+                reauction_of=info.auction_id,
+            )
+            opened.append(rec.id)
+        for tid, alloc in self.peer_alloc.pop(peer, {}).items():
+            if alloc.winner in self.down:
+                self.reauction(alloc, None)
+            else:
+                self.house.allocations[tid] = alloc
+        self.adopted[peer] = opened
+        cells = self.adopt_extra(peer)
+        self.ctx.emit("takeover", by=self.name, robot=peer, auctions=opened)
+        self.ctx.bus.publish(Takeover(sender=self.name, failed=peer, cells=tuple(cells)))
+
+    def adopt_extra(self, peer: str) -> list[int]:
+        """Hook: scouts take over the peer's unscanned cells."""
+        return []
+
+    def reauction(self, alloc: Allocation, hb: Heartbeat | None) -> None:
+        """Offer a task again whose holder failed, released it or dropped it."""
+        kind = AUCTION_KINDS.get(self.rtype, "operator")
+        location, search = alloc.location, alloc.search_path
+        if hb is not None and hb.load > 0 and alloc.task_id in hb.tasks:
+            # it was carrying the mineral: search along its route from where it was last heard
+            location, search = (hb.x, hb.y), hb.path
+        self.house.open(
+            alloc.task_type,
+            location,
+            alloc.task_id,
+            kind=kind,
+            search_path=search,
+            reauction_of=alloc.auction_id,
+        )
+
+    def _on_allocated(self, alloc: Allocation) -> None:
+        """Hook from the auction house when one of my auctions closes."""
+
+    # --- operator-driven failures -------------------------------------------------------
+    def fail(self) -> None:
+        """Abrupt failure: stop where it is; nothing is sent or answered any more."""
+        self._end_motion()
+        self.alive = False
+        self.enabled = False
+        self.state = "failed"
+        for p in self._procs:
+            if p.is_alive:
+                p.interrupt("failed")
+        self._procs.clear()
+        self.house.stop()
+        self.drop_loads()
+        self.current = None
+        self.queue.clear()
+
+    def drop_loads(self) -> None:
+        """Hook: whatever it carries falls where it stands."""
+
+    def disable(self) -> None:
+        """Graceful: take nothing new, finish the current hand-over, then say goodbye."""
+        self.leaving = True
+        self.wake()
+
+    def go_quiet(self) -> None:
+        """The end of a graceful disable: announce it, then stop like a failure."""
+        self.ctx.bus.publish(Leaving(sender=self.name, progress=self.progress()))
+        for aid in list(self.house.open_auctions):
+            self.house.cancel(aid)
+        self.fail()
+        self.state = "disabled"
+        self.ctx.emit("robot_quiet", robot=self.name)
+
+    def enable(self) -> None:
+        self.alive = True
+        self.enabled = True
+        self.leaving = False
+        self.state = "idle"
+        self.current = None
+        self.queue.clear()
+        self._reset_knowledge()
+        self.house = AuctionHouse(self.name, self.ctx, self._on_allocated)
+        self.start(joined_late=True)
+
+
+_HANDLERS: dict[type[Message], Any] = {
+    Announce: Robot._on_announce,
+    Bid: Robot._on_bid,
+    Award: Robot._on_award,
+    Ack: Robot._on_ack,
+    Close: Robot._on_close,
+    TaskDone: Robot._on_task_done,
+    Holding: Robot._on_holding,
+    Takeover: Robot._on_takeover,
+    Leaving: Robot._on_leaving,
+    Hello: Robot._on_hello,
+}

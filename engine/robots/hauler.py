@@ -1,0 +1,166 @@
+"""Haulers carry one mineral at a time from a site (or the ground) to the plant."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import simpy
+
+from engine.context import NEAR
+from engine.geometry import Point, dist, segment_point_distance
+from engine.messages import Close, TaskDone
+from engine.policies import coalition_partner
+from engine.robots.base import Assignment, Robot
+
+if TYPE_CHECKING:
+    from engine.robots.excavator import Excavator
+
+SENSE = 2.0
+"""How far a hauler sees a mineral lying on the ground while it drives."""
+
+
+class Hauler(Robot):
+    rtype = "hauler"
+    capability = "transport"
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.bin = 0
+        self._loaded: simpy.Event | None = None
+        self.partner_site: Point | None = None
+
+    def load(self) -> int:
+        return self.bin
+
+    def life(self) -> Any:
+        while True:
+            if self.leaving:
+                self.go_quiet()
+                return
+            if self.queue:
+                a = self.queue.popleft()
+                self.current = a
+                yield from self.transport(a)
+            elif self.in_coalition() and self.partner_site is not None:
+                yield from self.follow_partner()
+            else:
+                self.state = "idle"
+                yield self.wait_for_wake()
+
+    # --- auctioned transport ------------------------------------------------------------
+    def transport(self, a: Assignment) -> Any:
+        self.state = "travelling"
+        yield from self.go_to(a.location)
+        if a.search_path:
+            yield from self.search_along(a.search_path)
+        else:
+            exc = self._excavator_here(lambda e: e.waiting_for == a.task_id)
+            if exc is not None and exc.hauler_arrived(self, a.task_id):
+                yield from self.wait_loaded()
+        if not self.bin:
+            yield from self.pick_from_ground(self.pos)
+        if not self.bin:
+            self.finish(a, "void")
+            return
+        yield from self.deliver()
+        self.finish(a)
+
+    def wait_loaded(self) -> Any:
+        """Stand by the excavator until it has emptied its bucket into my bin."""
+        self.state = "waiting"
+        self._loaded = self.env.event()
+        limit = self.ctx.scenario.timing.transfer_s + self.ctx.scenario.protocol.failure_timeout_s
+        yield self._loaded | self.env.timeout(limit)
+        self._loaded = None
+
+    def receive(self, exc: Excavator) -> None:
+        self.bin = 1
+        if self._loaded is not None and not self._loaded.triggered:
+            self._loaded.succeed()
+
+    def search_along(self, route: tuple[Point, ...]) -> Any:
+        """Follow a failed hauler's route until its fallen mineral comes into sight."""
+        self.state = "travelling"
+        for i in range(len(route) - 1):
+            a, b = route[i], route[i + 1]
+            for g in self.ctx.ground:
+                if segment_point_distance(a, b, (g.x, g.y)) <= SENSE:
+                    yield from self.go_to((g.x, g.y))
+                    return
+            yield from self.go_to(b)
+
+    def pick_from_ground(self, p: Point) -> Any:
+        g = self.ctx.ground_near(p, SENSE)
+        if g is None:
+            return
+        if dist(p, (g.x, g.y)) > NEAR:
+            yield from self.go_to((g.x, g.y))
+        self.state = "loading"
+        yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
+        if g in self.ctx.ground:
+            self.ctx.pick_ground(g, self.name)
+            self.bin = 1
+
+    def deliver(self) -> Any:
+        self.state = "carrying"
+        yield from self.go_to(self.ctx.world.plant)
+        self.state = "unloading"
+        yield self.env.timeout(self.ctx.scenario.timing.unload_s)
+        self.bin = 0
+        self.ctx.note_delivery(self.name)
+
+    def _excavator_here(self, pred: Any) -> Excavator | None:
+        for r in self.ctx.robots.values():
+            if r.rtype == "excavator" and r.alive and dist(r.pos, self.pos) <= NEAR and pred(r):
+                return r  # type: ignore[return-value]
+        return None
+
+    # --- Policy 2: follow the partner excavator ------------------------------------------
+    def follow_partner(self) -> Any:
+        site = self.partner_site
+        assert site is not None
+        self.state = "travelling"
+        yield from self.go_to(site)
+        partner = coalition_partner(self.name)
+        exc = self._excavator_here(lambda e: e.name == partner)
+        if exc is None:
+            # not there (yet, or any more): wait for news rather than spin
+            self.state = "idle"
+            yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
+            return
+        self.state = "waiting"
+        self._loaded = self.env.event()
+        exc.partner_arrived(self)
+        woken = self.wait_for_wake()
+        yield self._loaded | woken
+        self._loaded = None
+        exc.partner_left(self)
+        if self.bin:
+            yield from self.deliver()
+            self.ctx.emit("coalition_delivery", robot=self.name, excavator=exc.name)
+
+    def ready_for(self, exc: Excavator) -> bool:
+        """Standing by this excavator with an empty bin, waiting for its bucket?"""
+        return (
+            self.alive
+            and self.bin == 0
+            and self._loaded is not None
+            and self.current is None
+            and dist(self.pos, exc.pos) <= NEAR
+        )
+
+    def on_close_heard(self, msg: Close) -> None:
+        if msg.task_type == "excavate" and msg.allocated_to == coalition_partner(self.name):
+            self.partner_site = msg.location
+            self.wake()
+
+    def on_task_done_heard(self, msg: TaskDone) -> None:
+        if msg.sender == coalition_partner(self.name) and msg.task_id.startswith("excavate@"):
+            self.partner_site = None
+            self.wake()
+
+    def drop_loads(self) -> None:
+        if self.bin:
+            self.bin = 0
+            self.ctx.drop_mineral(self.pos, self.name)
+        self._loaded = None

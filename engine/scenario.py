@@ -1,0 +1,207 @@
+"""The scenario: every parameter of a mission, validated, with the reference values as defaults.
+
+A scenario plus a seed fully determines a run. Quantities the research design leaves open
+(speeds, dig/transfer/unload times, protocol timeouts) carry documented defaults here; see
+docs/scenario.md for the reasoning behind each.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Coord = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be used; the message names the field and the reason."""
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Crater(_Model):
+    """A circular obstacle robots must plan around."""
+
+    x: Coord
+    y: Coord
+    r: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)]
+
+
+class Team(_Model):
+    """How many robots of each type start the mission."""
+
+    scouts: Annotated[int, Field(ge=1, le=2000)] = 2
+    excavators: Annotated[int, Field(ge=1, le=2000)] = 4
+    haulers: Annotated[int, Field(ge=1, le=2000)] = 6
+
+
+class Speeds(_Model):
+    """Driving speeds in metres per simulated second (a few km/h, like planetary rovers)."""
+
+    scout: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 1.0
+    excavator: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 0.5
+    hauler: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 0.8
+
+
+class Timing(_Model):
+    """Durations of physical work, in simulated seconds."""
+
+    dig_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 20.0
+    transfer_s: Annotated[float, Field(ge=0, le=3600, allow_inf_nan=False)] = 5.0
+    unload_s: Annotated[float, Field(ge=0, le=3600, allow_inf_nan=False)] = 5.0
+
+
+class Protocol(_Model):
+    """Auction and liveness timing (simulated seconds)."""
+
+    bid_window_s: Annotated[float, Field(gt=0, le=600, allow_inf_nan=False)] = 1.0
+    ack_timeout_s: Annotated[float, Field(gt=0, le=600, allow_inf_nan=False)] = 2.0
+    retry_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 5.0
+    award_collect_s: Annotated[float, Field(ge=0, le=600, allow_inf_nan=False)] = 0.2
+    heartbeat_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 10.0
+    failure_timeout_s: Annotated[float, Field(gt=0, le=36000, allow_inf_nan=False)] = 30.0
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Protocol:
+        if self.award_collect_s >= self.ack_timeout_s:
+            raise ValueError("award_collect_s must be shorter than ack_timeout_s")
+        if self.failure_timeout_s <= 2 * self.heartbeat_s:
+            raise ValueError("failure_timeout_s must exceed two heartbeat periods")
+        return self
+
+
+class BusConfig(_Model):
+    """The embedded bus's fault model: seeded loss and latency."""
+
+    loss: Annotated[float, Field(ge=0, le=0.9, allow_inf_nan=False)] = 0.0
+    latency_s: Annotated[float, Field(ge=0, le=60, allow_inf_nan=False)] = 0.0
+    jitter_s: Annotated[float, Field(ge=0, le=60, allow_inf_nan=False)] = 0.0
+
+
+class Scenario(_Model):
+    """A whole mission's world and parameters. Defaults are SPEC §1's reference scenario."""
+
+    name: Annotated[str, Field(min_length=1, max_length=80)] = "reference"
+    width: Annotated[float, Field(gt=0, le=5000, allow_inf_nan=False)] = 100.0
+    height: Annotated[float, Field(gt=0, le=5000, allow_inf_nan=False)] = 100.0
+    plant: tuple[Coord, Coord] | None = None
+    sites: Annotated[int, Field(ge=1, le=5000)] = 10
+    minerals: Annotated[int, Field(ge=1, le=100000)] = 64
+    team: Team = Team()
+    scan_radius: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 2.5
+    craters: list[Crater] = Field(default_factory=list, max_length=2000)
+    random_craters: Annotated[int, Field(ge=0, le=2000)] = 6
+    crater_radius: tuple[PositiveFloat, PositiveFloat] = (2.0, 5.0)
+    speeds: Speeds = Speeds()
+    timing: Timing = Timing()
+    protocol: Protocol = Protocol()
+    bus: BusConfig = BusConfig()
+    max_time_s: Annotated[float, Field(gt=0, le=1e7, allow_inf_nan=False)] = 200_000.0
+    start_spread: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 3.0
+
+    @property
+    def plant_xy(self) -> tuple[float, float]:
+        """The processing plant: the given point, or the centre of the area."""
+        return self.plant if self.plant is not None else (self.width / 2, self.height / 2)
+
+    @model_validator(mode="after")
+    def _feasible(self) -> Scenario:
+        px, py = self.plant_xy
+        if not (0 <= px <= self.width and 0 <= py <= self.height):
+            raise ValueError("plant must lie inside the area")
+        if self.minerals < self.sites:
+            raise ValueError("minerals must be at least sites (every site holds one or more)")
+        lo, hi = self.crater_radius
+        if lo > hi:
+            raise ValueError("crater_radius must be (min, max) with min <= max")
+        for i, c in enumerate(self.craters):
+            if math.hypot(c.x - px, c.y - py) <= c.r + self.start_spread + 1.0:
+                raise ValueError(f"craters[{i}] covers the plant or the start area")
+        free = self.width * self.height - sum(math.pi * c.r**2 for c in self.craters)
+        if free < 0.25 * self.width * self.height:
+            raise ValueError("craters cover too much of the area for sites to fit")
+        cell = self.scan_radius * math.sqrt(2)
+        if self.sites > 0.5 * (self.width / cell) * (self.height / cell):
+            raise ValueError("sites: more sites than fit apart on the search grid")
+        return self
+
+    def scaled(self, k: int) -> Scenario:
+        """K times the team, sites, minerals and craters on an area √K wider (same density)."""
+        if k < 1:
+            raise ScenarioError("scale: must be a whole number >= 1")
+        if k == 1:
+            return self
+        s = math.sqrt(k)
+        px, py = self.plant_xy
+        return self.model_copy(
+            update={
+                "width": self.width * s,
+                "height": self.height * s,
+                "plant": (px * s, py * s),
+                "sites": self.sites * k,
+                "minerals": self.minerals * k,
+                "team": Team(
+                    scouts=self.team.scouts * k,
+                    excavators=self.team.excavators * k,
+                    haulers=self.team.haulers * k,
+                ),
+                "craters": [Crater(x=c.x * s, y=c.y * s, r=c.r) for c in self.craters],
+                "random_craters": self.random_craters * k,
+                "name": f"{self.name}x{k}",
+            }
+        )
+
+
+def reference_scenario() -> Scenario:
+    """SPEC §1's reference scenario."""
+    return Scenario()
+
+
+def _error_text(exc: ValidationError) -> str:
+    parts = []
+    for err in exc.errors():
+        field = ".".join(str(p) for p in err["loc"]) or "scenario"
+        parts.append(f"{field}: {err['msg']}")
+    return "; ".join(parts)
+
+
+def parse_scenario(data: dict[str, Any]) -> Scenario:
+    """Validate a scenario mapping, raising ScenarioError that names the field."""
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(_error_text(exc)) from None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load a scenario from a .toml or .json file."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"scenario file {p}: {exc.strerror or exc}") from None
+    try:
+        if p.suffix.lower() == ".toml":
+            data = tomllib.loads(raw.decode("utf-8"))
+        elif p.suffix.lower() == ".json":
+            data = json.loads(raw)
+        else:
+            raise ScenarioError(f"scenario file {p}: must end in .toml or .json")
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"scenario file {p}: not valid {p.suffix[1:].upper()}: {exc}") from None
+    if not isinstance(data, dict):
+        raise ScenarioError(f"scenario file {p}: must hold a table/object at the top level")
+    return parse_scenario(data)
+
+
+RobotType = Literal["scout", "excavator", "hauler"]
+ROBOT_TYPES: tuple[RobotType, ...] = ("scout", "excavator", "hauler")

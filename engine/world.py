@@ -1,0 +1,160 @@
+"""The physical world of one run, generated from the scenario and the seed."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.geometry import Point
+from engine.scenario import Crater, Scenario
+
+CLEARANCE = 0.5
+"""Robots keep this far from a crater's rim (their half-width); planning inflates craters by it."""
+
+
+@dataclass(frozen=True, slots=True)
+class Site:
+    """A resource site: ground truth the robots must discover."""
+
+    id: str
+    x: float
+    y: float
+    minerals: int
+
+
+@dataclass(frozen=True, slots=True)
+class SearchGrid:
+    """Cells small enough that a scout at a cell's waypoint scans the whole cell."""
+
+    cols: int
+    rows: int
+    cell_w: float
+    cell_h: float
+    waypoints: tuple[Point | None, ...]  # row-major; None where the cell is all crater
+
+    def cell_of(self, x: float, y: float) -> int:
+        c = min(self.cols - 1, max(0, int(x / self.cell_w)))
+        r = min(self.rows - 1, max(0, int(y / self.cell_h)))
+        return r * self.cols + c
+
+    def centre(self, cell: int) -> Point:
+        r, c = divmod(cell, self.cols)
+        return ((c + 0.5) * self.cell_w, (r + 0.5) * self.cell_h)
+
+
+@dataclass(frozen=True, slots=True)
+class World:
+    width: float
+    height: float
+    plant: Point
+    craters: tuple[Crater, ...]
+    sites: tuple[Site, ...]
+    grid: SearchGrid
+
+    def is_free(self, x: float, y: float, margin: float = CLEARANCE) -> bool:
+        if not (0.0 <= x <= self.width and 0.0 <= y <= self.height):
+            return False
+        return all(math.hypot(x - c.x, y - c.y) > c.r + margin for c in self.craters)
+
+    def to_dict(self) -> dict[str, object]:
+        """The static map, as viewers draw it."""
+        return {
+            "width": self.width,
+            "height": self.height,
+            "plant": {"x": self.plant[0], "y": self.plant[1]},
+            "obstacles": [{"x": c.x, "y": c.y, "r": c.r} for c in self.craters],
+            "grid": {
+                "cols": self.grid.cols,
+                "rows": self.grid.rows,
+                "cell_w": self.grid.cell_w,
+                "cell_h": self.grid.cell_h,
+            },
+            "sites": [{"id": s.id, "x": s.x, "y": s.y, "minerals": s.minerals} for s in self.sites],
+        }
+
+
+def _free(x: float, y: float, s: Scenario, craters: tuple[Crater, ...], margin: float) -> bool:
+    edge = 0.1
+    if not (edge <= x <= s.width - edge and edge <= y <= s.height - edge):
+        return False
+    return all(math.hypot(x - c.x, y - c.y) > c.r + margin for c in craters)
+
+
+def _waypoint(
+    cx: float, cy: float, cw: float, ch: float, s: Scenario, craters: tuple[Crater, ...]
+) -> Point | None:
+    """The cell's centre, or the free point of the cell nearest to it (None: all crater)."""
+    margin = 2 * CLEARANCE
+    if _free(cx, cy, s, craters, margin):
+        return (cx, cy)
+    steps = 8
+    candidates = [
+        (cx + cw * (i / steps - 0.5), cy + ch * (j / steps - 0.5))
+        for i in range(steps + 1)
+        for j in range(steps + 1)
+    ]
+    candidates.sort(key=lambda p: (math.hypot(p[0] - cx, p[1] - cy), p))
+    for p in candidates:
+        if _free(p[0], p[1], s, craters, margin):
+            return p
+    return None
+
+
+def make_grid(s: Scenario, craters: tuple[Crater, ...]) -> SearchGrid:
+    side = s.scan_radius * math.sqrt(2.0)  # a square this wide fits in the scan circle
+    cols, rows = math.ceil(s.width / side - 1e-9), math.ceil(s.height / side - 1e-9)
+    cw, ch = s.width / cols, s.height / rows
+    wps: list[Point | None] = []
+    for r in range(rows):
+        for c in range(cols):
+            wps.append(_waypoint((c + 0.5) * cw, (r + 0.5) * ch, cw, ch, s, craters))
+    return SearchGrid(cols, rows, cw, ch, tuple(wps))
+
+
+def _random_craters(s: Scenario, rng: np.random.Generator) -> list[Crater]:
+    px, py = s.plant_xy
+    lo, hi = s.crater_radius
+    out: list[Crater] = []
+    for _ in range(s.random_craters * 50):
+        if len(out) == s.random_craters:
+            break
+        r = float(rng.uniform(lo, hi))
+        x = float(rng.uniform(0.0, s.width))
+        y = float(rng.uniform(0.0, s.height))
+        if math.hypot(x - px, y - py) > r + s.start_spread + 4.0:
+            out.append(Crater(x=round(x, 3), y=round(y, 3), r=round(r, 3)))
+    return out
+
+
+def generate_world(s: Scenario, rng: np.random.Generator) -> World:
+    """Craters, then sites where the search can find them, then minerals split over sites."""
+    craters = tuple(list(s.craters) + _random_craters(s, rng))
+    grid = make_grid(s, craters)
+    px, py = s.plant_xy
+    edge = min(1.0, s.width / 4, s.height / 4)
+    points: list[Point] = []
+    attempts = 0
+    while len(points) < s.sites:
+        attempts += 1
+        if attempts > 200 * s.sites + 1000:
+            raise ValueError("sites: could not place every site in free space")
+        x = float(rng.uniform(edge, s.width - edge))
+        y = float(rng.uniform(edge, s.height - edge))
+        if math.hypot(x - px, y - py) < s.start_spread + 2.0:
+            continue
+        if not all(math.hypot(x - c.x, y - c.y) > c.r + 2 * CLEARANCE for c in craters):
+            continue
+        wp = grid.waypoints[grid.cell_of(x, y)]
+        if wp is None or math.hypot(x - wp[0], y - wp[1]) > s.scan_radius * 0.999:
+            continue  # the scan point of its cell (moved out of a crater) would not see it
+        if any(math.hypot(x - q[0], y - q[1]) < s.scan_radius for q in points):
+            continue
+        points.append((round(x, 3), round(y, 3)))
+    counts = 1 + rng.multinomial(s.minerals - s.sites, [1.0 / s.sites] * s.sites)
+    sites = tuple(
+        Site(id=f"site-{i + 1}", x=p[0], y=p[1], minerals=int(n))
+        for i, (p, n) in enumerate(zip(points, counts, strict=True))
+    )
+    return World(s.width, s.height, (px, py), craters, sites, grid)
