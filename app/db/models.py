@@ -1,0 +1,183 @@
+"""Storage models: missions, their event log, auctions with bids and awards, operator actions.
+
+Kept apart from the API schemas (`app/api/schemas.py`); only `app/services/store.py` writes.
+Engine-side identifiers (auction ids, event seq) are natural keys scoped by mission.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Any, ClassVar
+
+from sqlalchemy import (
+    JSON,
+    Boolean,
+    DateTime,
+    Float,
+    ForeignKey,
+    ForeignKeyConstraint,
+    Index,
+    Integer,
+    String,
+    TypeDecorator,
+)
+from sqlalchemy.engine import Dialect
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+
+
+class UTCDateTime(TypeDecorator[datetime]):
+    """Aware UTC datetimes on every backend (SQLite drops the zone, so re-attach it)."""
+
+    impl = DateTime(timezone=True)
+    cache_ok = True
+
+    def process_bind_param(self, value: datetime | None, dialect: Dialect) -> datetime | None:
+        if value is not None and value.tzinfo is not None:
+            value = value.astimezone(UTC)
+        return value
+
+    def process_result_value(self, value: datetime | None, dialect: Dialect) -> datetime | None:
+        if value is not None and value.tzinfo is None:
+            value = value.replace(tzinfo=UTC)
+        return value
+
+
+def utcnow() -> datetime:
+    """Wall-clock time for records (never used inside the simulation)."""
+    return datetime.now(UTC)
+
+
+class Base(DeclarativeBase):
+    """Declarative base; its metadata is Alembic's target."""
+
+    type_annotation_map: ClassVar[dict[Any, Any]] = {
+        dict[str, Any]: JSON,
+        list[Any]: JSON,
+        datetime: UTCDateTime,
+    }
+
+
+class Mission(Base):
+    """One run: what determines it (scenario, seed, policy, planner) and how it went."""
+
+    __tablename__ = "missions"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    scenario_name: Mapped[str] = mapped_column(String(80))
+    scenario: Mapped[dict[str, Any]]
+    seed: Mapped[int] = mapped_column(Integer)
+    policy: Mapped[str] = mapped_column(String(32))
+    current_policy: Mapped[str] = mapped_column(String(32))
+    planner: Mapped[str] = mapped_column(String(16))
+    status: Mapped[str] = mapped_column(String(16), index=True)
+    speed: Mapped[float | None] = mapped_column(Float)
+    sim_time: Mapped[float] = mapped_column(Float, default=0.0)
+    created_at: Mapped[datetime]
+    started_at: Mapped[datetime | None]
+    ended_at: Mapped[datetime | None]
+    world_map: Mapped[dict[str, Any] | None]
+    metrics: Mapped[dict[str, Any] | None]
+    final_state: Mapped[dict[str, Any] | None]
+    error: Mapped[str | None] = mapped_column(String(2000))
+
+    actions: Mapped[list[Action]] = relationship(
+        back_populates="mission", order_by="Action.seq", cascade="all, delete-orphan"
+    )
+
+
+class Event(Base):
+    """One engine event, exactly as the engine emitted it."""
+
+    __tablename__ = "events"
+    __table_args__ = (Index("ix_events_mission_kind_seq", "mission_id", "kind", "seq"),)
+
+    mission_id: Mapped[int] = mapped_column(
+        ForeignKey("missions.id", ondelete="CASCADE"), primary_key=True
+    )
+    seq: Mapped[int] = mapped_column(Integer, primary_key=True)
+    t: Mapped[float] = mapped_column(Float)
+    kind: Mapped[str] = mapped_column(String(40))
+    data: Mapped[dict[str, Any]]
+
+
+class Auction(Base):
+    """An auction's current outcome; bids and awards hang off it in order."""
+
+    __tablename__ = "auctions"
+    __table_args__ = (Index("ix_auctions_mission_opened", "mission_id", "opened_at"),)
+
+    mission_id: Mapped[int] = mapped_column(
+        ForeignKey("missions.id", ondelete="CASCADE"), primary_key=True
+    )
+    auction_id: Mapped[str] = mapped_column(String(120), primary_key=True)
+    kind: Mapped[str] = mapped_column(String(32))
+    auctioneer: Mapped[str] = mapped_column(String(80))
+    task_type: Mapped[str] = mapped_column(String(32))
+    location_x: Mapped[float] = mapped_column(Float)
+    location_y: Mapped[float] = mapped_column(Float)
+    status: Mapped[str] = mapped_column(String(16))
+    opened_at: Mapped[float] = mapped_column(Float)
+    closed_at: Mapped[float | None] = mapped_column(Float)
+    allocated_to: Mapped[str | None] = mapped_column(String(80))
+    reannouncements: Mapped[int] = mapped_column(Integer, default=0)
+    policy: Mapped[str] = mapped_column(String(32))
+    task_id: Mapped[str | None] = mapped_column(String(120))
+    reauction_of: Mapped[str | None] = mapped_column(String(120))
+
+    bids: Mapped[list[Bid]] = relationship(order_by="Bid.idx", cascade="all, delete-orphan")
+    awards: Mapped[list[Award]] = relationship(order_by="Award.idx", cascade="all, delete-orphan")
+
+
+def _auction_fk() -> ForeignKeyConstraint:
+    return ForeignKeyConstraint(
+        ["mission_id", "auction_id"],
+        ["auctions.mission_id", "auctions.auction_id"],
+        ondelete="CASCADE",
+    )
+
+
+class Bid(Base):
+    """A bid; `utility` NULL stands for -inf (a capable robot that is busy)."""
+
+    __tablename__ = "bids"
+    __table_args__ = (_auction_fk(), Index("ix_bids_mission_bidder", "mission_id", "bidder"))
+
+    mission_id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    auction_id: Mapped[str] = mapped_column(String(120), primary_key=True)
+    idx: Mapped[int] = mapped_column(Integer, primary_key=True)
+    t: Mapped[float] = mapped_column(Float)
+    bidder: Mapped[str] = mapped_column(String(80))
+    utility: Mapped[float | None] = mapped_column(Float)
+    round: Mapped[int] = mapped_column(Integer)
+
+
+class Award(Base):
+    """An offer to a winner and its answer: accepted, declined or timeout."""
+
+    __tablename__ = "awards"
+    __table_args__ = (_auction_fk(),)
+
+    mission_id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    auction_id: Mapped[str] = mapped_column(String(120), primary_key=True)
+    idx: Mapped[int] = mapped_column(Integer, primary_key=True)
+    t: Mapped[float] = mapped_column(Float)
+    winner: Mapped[str] = mapped_column(String(80))
+    outcome: Mapped[str] = mapped_column(String(16))
+
+
+class Action(Base):
+    """An operator action at a simulated time; `replay` ones rebuild the mission on restart."""
+
+    __tablename__ = "actions"
+
+    mission_id: Mapped[int] = mapped_column(
+        ForeignKey("missions.id", ondelete="CASCADE"), primary_key=True
+    )
+    seq: Mapped[int] = mapped_column(Integer, primary_key=True)
+    t: Mapped[float] = mapped_column(Float)
+    kind: Mapped[str] = mapped_column(String(32))
+    args: Mapped[dict[str, Any]]
+    replay: Mapped[bool] = mapped_column(Boolean)
+    created_at: Mapped[datetime]
+
+    mission: Mapped[Mission] = relationship(back_populates="actions")
