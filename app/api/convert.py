@@ -1,0 +1,60 @@
+"""Storage rows (plus live state when the mission is running) → API schemas."""
+
+from __future__ import annotations
+
+from app.api.schemas import ActionRead, AuctionRead, AwardRead, BidRead, MissionDetail, MissionRead
+from app.db.models import Auction
+from app.db.models import Mission as MissionRow
+from app.runner import LiveMission
+
+
+def mission_read(row: MissionRow, lm: LiveMission | None) -> MissionRead:
+    speed = lm.speed if lm is not None else row.speed
+    return MissionRead(
+        id=row.id,
+        status=lm.status if lm is not None else row.status,  # type: ignore[arg-type]
+        policy=lm.mission.policy if lm is not None else row.current_policy,
+        initial_policy=row.policy,
+        seed=row.seed,
+        speed="max" if speed is None else speed,
+        planner=row.planner,
+        scenario_name=row.scenario_name,
+        sim_time=float(lm.mission.now) if lm is not None else row.sim_time,
+        created_at=row.created_at,
+        started_at=row.started_at,
+        ended_at=row.ended_at,
+        error=row.error,
+    )
+
+
+def mission_detail(
+    row: MissionRow, lm: LiveMission | None, actions: list[ActionRead] | None = None
+) -> MissionDetail:
+    metrics = lm.mission.metrics() if lm is not None and not lm.finishing else row.metrics
+    return MissionDetail(
+        **mission_read(row, lm).model_dump(),
+        scenario=row.scenario,
+        metrics=metrics,
+        actions=[ActionRead.model_validate(a) for a in row.actions] if actions is None else actions,
+    )
+
+
+def auction_read(a: Auction) -> AuctionRead:
+    return AuctionRead(
+        id=a.auction_id,
+        kind=a.kind,
+        auctioneer=a.auctioneer,
+        task_type=a.task_type,
+        task_id=a.task_id,
+        location=(a.location_x, a.location_y),
+        status=a.status,
+        opened_at=a.opened_at,
+        closed_at=a.closed_at,
+        allocated_to=a.allocated_to,
+        reannouncements=a.reannouncements,
+        reauction_of=a.reauction_of,
+        policy=a.policy,
+        declines=sum(1 for w in a.awards if w.outcome == "declined"),
+        bids=[BidRead.model_validate(b) for b in a.bids],
+        awards=[AwardRead.model_validate(w) for w in a.awards],
+    )

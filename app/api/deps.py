@@ -1,0 +1,82 @@
+"""Typed dependencies: `Annotated` aliases keep route signatures short."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Path, Request, status
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from starlette.requests import HTTPConnection
+
+from app.runner import MissionRunner
+from app.security import token_matches
+from app.services.commands import RobotCommands
+from app.services.missions import MissionService
+from app.services.store import Store
+from app.settings import Settings
+
+
+@dataclass
+class Services:
+    """Everything the lifespan owns that requests use."""
+
+    settings: Settings
+    store: Store
+    runner: MissionRunner
+    missions: MissionService
+    commands: RobotCommands
+    token: str
+
+
+def get_services(conn: HTTPConnection) -> Services:
+    services: Services = conn.app.state.services
+    return services
+
+
+ServicesDep = Annotated[Services, Depends(get_services)]
+
+
+def get_missions(services: ServicesDep) -> MissionService:
+    return services.missions
+
+
+def get_commands(services: ServicesDep) -> RobotCommands:
+    return services.commands
+
+
+MissionsDep = Annotated[MissionService, Depends(get_missions)]
+CommandsDep = Annotated[RobotCommands, Depends(get_commands)]
+MissionId = Annotated[int, Path(ge=1, le=2**31 - 1, description="mission id")]
+RobotName = Annotated[
+    str, Path(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.-]+$", description="robot")
+]
+
+_bearer = HTTPBearer(auto_error=False, description="the operator token")
+Credentials = Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
+
+
+def check_token(credentials: HTTPAuthorizationCredentials | None, expected: str) -> None:
+    """401 without a bearer token, 403 with a wrong one."""
+    if credentials is None:
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED,
+            "operator token required (Authorization: Bearer <token>)",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    if not token_matches(credentials.credentials, expected):
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "operator token is wrong")
+
+
+def require_operator(request: Request, credentials: Credentials) -> None:
+    check_token(credentials, get_services(request).token)
+
+
+def require_viewer(request: Request, credentials: Credentials) -> None:
+    services = get_services(request)
+    if services.settings.read_requires_token:
+        check_token(credentials, services.token)
+
+
+Operator = Depends(require_operator)
+Viewer = Depends(require_viewer)

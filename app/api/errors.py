@@ -1,0 +1,50 @@
+"""One JSON error shape: `detail` (FastAPI's), plus `message` naming the field for 422s."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+
+from app.services.errors import Invalid, ServiceError
+from engine import CommandRejected, ScenarioError, UnknownRobotError
+
+
+def _where(loc: Any) -> str:
+    return ".".join(str(p) for p in loc) or "request"
+
+
+async def _validation(_: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, RequestValidationError)
+    errors = jsonable_encoder(exc.errors(), exclude={"input", "ctx", "url"})
+    message = "; ".join(f"{_where(e['loc'])}: {e['msg']}" for e in errors)
+    return JSONResponse({"detail": errors, "message": message}, status_code=422)
+
+
+def _invalid(loc: tuple[Any, ...], message: str) -> JSONResponse:
+    detail = [{"loc": list(loc) or ["body"], "msg": message, "type": "value_error"}]
+    return JSONResponse({"detail": detail, "message": message}, status_code=422)
+
+
+async def _service(_: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, ServiceError)
+    if isinstance(exc, Invalid):
+        return _invalid(exc.loc, exc.message)
+    return JSONResponse({"detail": exc.message}, status_code=exc.status_code)
+
+
+async def _engine(_: Request, exc: Exception) -> JSONResponse:
+    if isinstance(exc, ScenarioError):
+        return _invalid(("body", "scenario"), f"scenario: {exc}")
+    code = 404 if isinstance(exc, UnknownRobotError) else 409
+    return JSONResponse({"detail": str(exc)}, status_code=code)
+
+
+def install(app: FastAPI) -> None:
+    app.add_exception_handler(RequestValidationError, _validation)
+    app.add_exception_handler(ServiceError, _service)
+    for exc in (UnknownRobotError, CommandRejected, ScenarioError):
+        app.add_exception_handler(exc, _engine)

@@ -1,0 +1,16 @@
+"""Scenarios: the reference one, as a template for `POST /api/missions` bodies."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+
+from app.api.deps import Viewer
+from engine import Scenario, reference_scenario
+
+router = APIRouter(prefix="/scenarios", tags=["scenarios"], dependencies=[Viewer])
+
+
+@router.get("/reference")
+async def reference() -> Scenario:
+    """SPEC §1's reference scenario with every default spelled out."""
+    return reference_scenario()

@@ -1,0 +1,209 @@
+"""API schemas, named by role; kept apart from the storage models in `app/db/models.py`."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Annotated, Any, Literal
+
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+
+from engine import Scenario, resolve_policy
+
+Finite = Annotated[float, Field(allow_inf_nan=False, ge=-1e7, le=1e7)]
+Point = tuple[Finite, Finite]
+Name = Annotated[str, Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.:/-]+$")]
+RobotType = Literal["scout", "excavator", "hauler"]
+TaskType = Literal["excavate", "transport"]
+MissionStatus = Literal[
+    "running", "paused", "completed", "timeout", "stopped", "interrupted", "failed"
+]
+
+
+def _policy(value: str | int) -> str:
+    return resolve_policy(value)  # ValueError names the choices
+
+
+PolicyName = Annotated[
+    Annotated[str, Field(max_length=32)] | Annotated[int, Field(ge=0, le=1000)],
+    AfterValidator(_policy),
+]
+Speed = Annotated[float, Field(ge=0, le=10_000, allow_inf_nan=False)] | Literal["max"]
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class MissionCreate(_In):
+    """A new live mission. `planner="straight"` trades path realism for speed (tests)."""
+
+    policy: PolicyName = "fcfs"
+    seed: Annotated[int, Field(ge=0, le=2**31 - 1)] = 0
+    speed: Speed = 1.0
+    paused: bool = False
+    scenario: Scenario | None = None
+    planner: Literal["ompl", "straight"] = "ompl"
+
+
+class SpeedUpdate(_In):
+    """0 pauses (the mission keeps its previous speed for resume); "max" runs flat out."""
+
+    speed: Speed
+
+
+class PolicyUpdate(_In):
+    policy: PolicyName
+
+
+class RobotDisable(_In):
+    """graceful: finishes nothing new and hands its work back; abrupt: stops where it is."""
+
+    mode: Literal["graceful", "abrupt"] = "graceful"
+
+
+class RobotCreate(_In):
+    type: RobotType
+    position: Point | None = None
+
+
+class TaskCreate(_In):
+    """An operator-initiated auction at `location`, with the operator as auctioneer."""
+
+    type: TaskType = "excavate"
+    location: Point
+
+
+class ActionRead(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    seq: int
+    t: float
+    kind: str
+    args: dict[str, Any]
+    replay: bool
+    created_at: datetime
+
+
+class MissionRead(BaseModel):
+    """A mission's identity and state; `policy` is the current one."""
+
+    id: int
+    status: MissionStatus
+    policy: str
+    initial_policy: str
+    seed: int
+    speed: float | Literal["max"]
+    planner: str
+    scenario_name: str
+    sim_time: float
+    created_at: datetime
+    started_at: datetime | None
+    ended_at: datetime | None
+    error: str | None = None
+
+
+class MissionDetail(MissionRead):
+    """A mission with its scenario, live or final metrics and operator actions."""
+
+    scenario: dict[str, Any]
+    metrics: dict[str, Any] | None
+    actions: list[ActionRead]
+
+
+class MissionPage(BaseModel):
+    items: list[MissionRead]
+    total: int
+    limit: int
+    offset: int
+
+
+class RobotRead(BaseModel):
+    """A robot as the engine reports it (extra engine fields pass through)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    name: str
+    type: str
+    state: str
+    x: float
+    y: float
+    load: int | None = None
+    task: str | None = None
+    alive: bool | None = None
+    enabled: bool | None = None
+
+
+class TaskCreated(BaseModel):
+    auction_id: str
+    type: str
+    location: tuple[float, float]
+
+
+class BidRead(BaseModel):
+    """utility None stands for -inf (capable but busy)."""
+
+    model_config = ConfigDict(from_attributes=True)
+
+    t: float
+    bidder: str
+    utility: float | None
+    round: int
+
+
+class AwardRead(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    t: float
+    winner: str
+    outcome: str
+
+
+class AuctionRead(BaseModel):
+    id: str
+    kind: str
+    auctioneer: str
+    task_type: str
+    task_id: str | None
+    location: tuple[float, float]
+    status: str
+    opened_at: float
+    closed_at: float | None
+    allocated_to: str | None
+    reannouncements: int
+    reauction_of: str | None
+    policy: str
+    declines: int
+    bids: list[BidRead]
+    awards: list[AwardRead]
+
+
+class AuctionPage(BaseModel):
+    items: list[AuctionRead]
+    total: int
+    limit: int
+    offset: int
+
+
+class EventRead(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    seq: int
+    t: float
+    kind: str
+    data: dict[str, Any]
+
+
+class EventPage(BaseModel):
+    """Events after `after` in order; pass `next_after` back to get the next page."""
+
+    items: list[EventRead]
+    total: int
+    limit: int
+    next_after: int | None
+
+
+class Health(BaseModel):
+    status: Literal["ok"]
+    version: str
+    missions_live: int
+    viewers: int

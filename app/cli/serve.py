@@ -1,0 +1,123 @@
+"""`regolith serve` and `regolith db upgrade`: the server and its schema from the command line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, NoReturn
+
+import typer
+
+USAGE_EXIT = 2
+
+
+def _fail(command: str, message: str, code: int = USAGE_EXIT) -> NoReturn:
+    typer.echo(f"regolith {command}: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
+    """Settings from the environment, overridden by the options given; bad values exit 2."""
+    from pydantic import ValidationError
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    from app.settings import Settings
+
+    overrides: dict[str, object] = {}
+    if db is not None:
+        overrides["db_url"] = db
+    if data_dir is not None:
+        overrides["data_dir"] = data_dir
+    try:
+        settings = Settings(**overrides)  # type: ignore[arg-type]
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        _fail(command, f"{'.'.join(map(str, err['loc']))}: {err['msg']}")
+    if settings.data_dir.exists() and not settings.data_dir.is_dir():
+        _fail(command, f"--data-dir {settings.data_dir}: not a directory")
+    try:
+        make_url(settings.database_url)
+    except ArgumentError:
+        _fail(command, f"--db {settings.database_url!r}: not a database URL (e.g. sqlite:///x.db)")
+    return settings
+
+
+def serve(
+    host: Annotated[str, typer.Option("--host", help="Interface to listen on.")] = "127.0.0.1",
+    port: Annotated[int, typer.Option("--port", help="TCP port.")] = 8000,
+    db: Annotated[
+        str | None, typer.Option("--db", help="SQLAlchemy URL (default: SQLite in --data-dir).")
+    ] = None,
+    data_dir: Annotated[
+        Path | None, typer.Option("--data-dir", help="Database, token and logs (default ./data).")
+    ] = None,
+    log_level: Annotated[str, typer.Option("--log-level", help="uvicorn log level.")] = "info",
+) -> None:
+    """Serve the API, the live stream and the dashboard (migrating the database first)."""
+    import uvicorn
+
+    from app.main import create_app
+    from app.security import resolve_token
+    from app.settings import Settings
+
+    if not 0 < port < 65536:
+        _fail("serve", f"--port {port}: must be between 1 and 65535")
+    if log_level not in ("critical", "error", "warning", "info", "debug", "trace"):
+        _fail("serve", f"--log-level {log_level}: choose critical|error|warning|info|debug")
+    settings = _settings("serve", db, data_dir)
+    assert isinstance(settings, Settings)
+    try:
+        token = resolve_token(settings)
+    except OSError as exc:
+        _fail("serve", f"--data-dir {settings.data_dir}: {exc.strerror or exc}", 1)
+    shown = "(from REGOLITH_TOKEN)" if settings.token is not None else token
+    where = f"{settings.data_dir / 'operator-token'}" if settings.token is None else "env"
+    browse = "127.0.0.1" if host in ("0.0.0.0", "::") else host
+    typer.echo(
+        f"Regolith dashboard: http://{browse}:{port}/   API docs: http://{browse}:{port}/docs"
+    )
+    typer.echo(f"Operator token: {shown}   (kept in {where})")
+    uvicorn.run(
+        create_app(settings),
+        host=host,
+        port=port,
+        log_level=log_level,
+        ws_max_size=max(65536, settings.ws_max_message),
+        timeout_graceful_shutdown=5,
+    )
+
+
+def upgrade(
+    db: Annotated[
+        str | None, typer.Option("--db", help="SQLAlchemy URL (default: SQLite in --data-dir).")
+    ] = None,
+    data_dir: Annotated[
+        Path | None, typer.Option("--data-dir", help="Data folder (default ./data).")
+    ] = None,
+) -> None:
+    """Apply the Alembic migrations up to the newest (safe to repeat)."""
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from app.db.migrate import upgrade as do_upgrade
+    from app.db.session import make_engine
+    from app.settings import Settings
+
+    settings = _settings("db upgrade", db, data_dir)
+    assert isinstance(settings, Settings)
+    try:
+        engine = make_engine(settings.database_url)
+        try:
+            do_upgrade(engine, settings.migrations_dir)
+        finally:
+            engine.dispose()
+    except (SQLAlchemyError, OSError) as exc:
+        _fail("db upgrade", f"{type(exc).__name__}: {str(exc).splitlines()[0]}", 1)
+    typer.echo(f"database at head: {settings.database_url}")
+
+
+def register(cli: typer.Typer) -> None:
+    """Add `serve` and the `db` group to the `regolith` command."""
+    cli.command(name="serve")(serve)
+    db_cli = typer.Typer(name="db", help="Database schema.", no_args_is_help=True)
+    db_cli.command(name="upgrade")(upgrade)
+    cli.add_typer(db_cli, name="db")

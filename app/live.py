@@ -1,0 +1,153 @@
+"""WebSocket fan-out: each message is serialized once and handed to every viewer of a mission.
+
+A viewer owns a bounded queue of ordered messages (snapshot, events, auctions, status) and a
+single slot for the newest frame, so a stale frame is replaced, never queued. A viewer whose
+queue fills (it stopped reading) is dropped; nothing here ever waits on a client.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import time
+from collections import deque
+from typing import Any
+
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+log = logging.getLogger("regolith.live")
+
+CLOSE_TOO_SLOW = 1013  # "try again later": the client fell behind its queue
+CLOSE_BAD_DATA = 1003
+CLOSE_TOO_BIG = 1009
+CLOSE_POLICY = 1008
+
+
+def encode(message: dict[str, Any]) -> str:
+    """Compact JSON, NaN/inf refused (the engine's JSON-ready dicts never hold them)."""
+    return json.dumps(message, separators=(",", ":"), allow_nan=False)
+
+
+class Viewer:
+    """One connected client: an ordered bounded queue plus a latest-frame slot."""
+
+    def __init__(self, ws: WebSocket, max_queue: int) -> None:
+        self.ws = ws
+        self.max_queue = max_queue
+        self.queue: deque[str] = deque()
+        self.frame: str | None = None
+        self.overflowed = False
+        self.frames_sent = 0
+        self.frames_dropped = 0
+        self._wake = asyncio.Event()
+
+    def push(self, text: str) -> None:
+        """Queue an ordered message; a full queue marks the viewer for dropping."""
+        if self.overflowed:
+            return
+        if len(self.queue) >= self.max_queue:
+            self.overflowed = True
+            self.queue.clear()
+        else:
+            self.queue.append(text)
+        self._wake.set()
+
+    def push_frame(self, text: str) -> None:
+        """Replace any unsent frame with the newest one."""
+        if self.frame is not None:
+            self.frames_dropped += 1
+        self.frame = text
+        self._wake.set()
+
+    async def pump(self) -> None:
+        """Send queued messages in order, then the newest frame; return when dropped."""
+        while True:
+            await self._wake.wait()
+            self._wake.clear()
+            while self.queue and not self.overflowed:
+                await self.ws.send_text(self.queue.popleft())
+            if self.overflowed:
+                return
+            if self.frame is not None:
+                text, self.frame = self.frame, None
+                await self.ws.send_text(text)
+                self.frames_sent += 1
+
+
+class Hub:
+    """The viewers of one mission."""
+
+    def __init__(self, max_queue: int) -> None:
+        self.max_queue = max_queue
+        self.viewers: set[Viewer] = set()
+
+    def __len__(self) -> int:
+        return len(self.viewers)
+
+    def join(self, ws: WebSocket, first: str) -> Viewer:
+        """Register a viewer whose first message is `first` (its snapshot)."""
+        viewer = Viewer(ws, self.max_queue)
+        viewer.push(first)
+        self.viewers.add(viewer)
+        return viewer
+
+    def leave(self, viewer: Viewer) -> None:
+        self.viewers.discard(viewer)
+
+    def publish(self, message: dict[str, Any]) -> None:
+        """An ordered message (event, auction, status) for every viewer."""
+        if self.viewers:
+            text = encode(message)
+            for v in self.viewers:
+                v.push(text)
+
+    def publish_frame(self, frame: dict[str, Any]) -> None:
+        """A state frame, stamped with the server's wall clock so clients can measure delay."""
+        if self.viewers:
+            text = encode({"type": "frame", "wall": time.time(), **frame})
+            for v in self.viewers:
+                v.push_frame(text)
+
+
+async def _read_until_closed(ws: WebSocket, max_message: int) -> int | None:
+    """Consume client input; return a close code for bad input, None on a clean disconnect."""
+    while True:
+        msg = await ws.receive()
+        if msg["type"] == "websocket.disconnect":
+            return None
+        text, data = msg.get("text"), msg.get("bytes")
+        size = len(text.encode()) if text is not None else len(data or b"")
+        if size > max_message:
+            return CLOSE_TOO_BIG
+        if text is None:
+            return CLOSE_BAD_DATA
+        try:
+            json.loads(text)
+        except ValueError:
+            return CLOSE_BAD_DATA
+
+
+async def serve_viewer(ws: WebSocket, hub: Hub, viewer: Viewer, max_message: int) -> None:
+    """Run one viewer until it leaves, misbehaves or falls behind; always unregister it."""
+    pump = asyncio.create_task(viewer.pump())
+    reader = asyncio.create_task(_read_until_closed(ws, max_message))
+    code: int | None = None
+    try:
+        done, _ = await asyncio.wait({pump, reader}, return_when=asyncio.FIRST_COMPLETED)
+        if reader in done and not reader.cancelled() and reader.exception() is None:
+            code = reader.result()
+        elif pump in done and not pump.cancelled() and pump.exception() is None:
+            code = CLOSE_TOO_SLOW
+            log.info("dropped a websocket viewer that fell %d messages behind", hub.max_queue)
+    finally:
+        hub.leave(viewer)
+        for task in (pump, reader):
+            task.cancel()
+        for task in (pump, reader):
+            with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, Exception):
+                await task
+    if code is not None:
+        with contextlib.suppress(Exception):
+            await asyncio.wait_for(ws.close(code=code), timeout=1.0)

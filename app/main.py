@@ -1,0 +1,93 @@
+"""The application factory: `create_app(settings)`; the lifespan owns every resource."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import AsyncExitStack, asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
+from fastapi.responses import HTMLResponse
+from fastapi.staticfiles import StaticFiles
+from starlette.concurrency import run_in_threadpool
+
+from app.api import errors
+from app.api.deps import Services
+from app.api.routes import api_router
+from app.db.migrate import upgrade
+from app.db.session import make_engine, make_sessionmaker
+from app.middleware import LimitBodyMiddleware, SecurityHeadersMiddleware
+from app.runner import MissionRunner
+from app.security import resolve_token
+from app.services.commands import RobotCommands
+from app.services.missions import MissionService
+from app.services.store import Store
+from app.settings import Settings
+
+log = logging.getLogger("regolith")
+
+_NO_DASHBOARD = """<!doctype html><title>Regolith</title>
+<p>The dashboard is not installed (no frontend/ folder). The API is at <a href="/docs">/docs</a>.
+"""
+
+
+def _lifespan(settings: Settings):  # type: ignore[no-untyped-def]
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        async with AsyncExitStack() as stack:
+            token = resolve_token(settings)
+            engine = make_engine(settings.database_url)
+            stack.callback(engine.dispose)
+            await run_in_threadpool(upgrade, engine, settings.migrations_dir)
+            store = Store(make_sessionmaker(engine))
+            stack.callback(store.close)
+            stale = await store.interrupt_stale()
+            if stale:
+                log.warning("%d mission(s) were left running; marked interrupted", stale)
+            runner = MissionRunner(settings, store)
+            await runner.start()
+            stack.push_async_callback(runner.aclose)
+            missions = MissionService(settings, store, runner)
+            app.state.services = Services(
+                settings=settings,
+                store=store,
+                runner=runner,
+                missions=missions,
+                commands=RobotCommands(missions),
+                token=token,
+            )
+            yield
+
+    return lifespan
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """A fresh application; nothing happens until its lifespan starts."""
+    settings = settings or Settings()
+    app = FastAPI(
+        title="Regolith",
+        summary="Mission control for auction-based lunar mining robot teams",
+        version="0.1.0",
+        lifespan=_lifespan(settings),
+    )
+    errors.install(app)
+    app.include_router(api_router)
+    app.add_middleware(LimitBodyMiddleware, max_bytes=1_000_000)
+    app.add_middleware(SecurityHeadersMiddleware)
+    if settings.cors_origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=settings.cors_origins,
+            allow_methods=["GET", "POST", "PUT"],
+            allow_headers=["Authorization", "Content-Type"],
+        )
+    if (settings.frontend_dir / "index.html").is_file() or settings.frontend_dir.is_dir():
+        app.mount("/", StaticFiles(directory=settings.frontend_dir, html=True), name="dashboard")
+    else:
+
+        @app.get("/", include_in_schema=False)
+        async def no_dashboard() -> HTMLResponse:
+            return HTMLResponse(_NO_DASHBOARD)
+
+    return app

@@ -1,0 +1,74 @@
+"""Operator commands on a live mission's robots and tasks (the engine's fault-tolerance paths).
+
+Input the engine would reject for a reason the operator can fix (a point outside the area)
+is checked here first so the 422 names the field; the engine stays the final judge.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from app.runner import LiveMission
+from app.services.errors import Invalid, LimitExceeded, NotFound
+from app.services.missions import MissionService
+from engine import CommandRejected
+
+Point = tuple[float, float]
+
+
+def _inside(lm: LiveMission, p: Point, loc: tuple[str | int, ...]) -> None:
+    wm = lm.mission.world_map()
+    width, height = float(wm["width"]), float(wm["height"])
+    if not (0 <= p[0] <= width and 0 <= p[1] <= height):
+        raise Invalid(f"{loc[-1]}: ({p[0]}, {p[1]}) is outside the {width}×{height} area", loc)
+
+
+def _robot(lm: LiveMission, name: str) -> dict[str, Any]:
+    for robot in lm.mission.robot_list():
+        if robot["name"] == name:
+            return dict(robot)
+    raise NotFound(f"robot {name!r} not found in mission {lm.id}")
+
+
+class RobotCommands:
+    """Disable, enable and add robots; inject operator tasks."""
+
+    def __init__(self, missions: MissionService) -> None:
+        self.missions = missions
+
+    async def disable(self, mission_id: int, name: str, mode: str) -> dict[str, Any]:
+        lm = await self.missions.live(mission_id)
+        lm.mission.disable_robot(name, mode=mode)
+        await self.missions.record_engine_action(lm, {})
+        return _robot(lm, name)
+
+    async def enable(self, mission_id: int, name: str) -> dict[str, Any]:
+        lm = await self.missions.live(mission_id)
+        lm.mission.enable_robot(name)
+        await self.missions.record_engine_action(lm, {})
+        return _robot(lm, name)
+
+    async def add(self, mission_id: int, rtype: str, position: Point | None) -> dict[str, Any]:
+        lm = await self.missions.live(mission_id)
+        limit = self.missions.settings.max_robots
+        if len(lm.mission.robot_list()) >= limit:
+            raise LimitExceeded(f"mission {mission_id} already has {limit} robots (the limit)")
+        if position is not None:
+            _inside(lm, position, ("body", "position"))
+        try:
+            name = lm.mission.add_robot(rtype, position)
+        except CommandRejected as exc:
+            raise Invalid(str(exc), ("body", "position" if position else "type")) from None
+        await self.missions.record_engine_action(lm, {})
+        return _robot(lm, name)
+
+    async def inject_task(self, mission_id: int, task_type: str, location: Point) -> str:
+        lm = await self.missions.live(mission_id)
+        _inside(lm, location, ("body", "location"))
+        try:
+            auction_id = lm.mission.inject_task(task_type=task_type, location=location)
+        except CommandRejected as exc:
+            raise Invalid(str(exc), ("body", "location")) from None
+        await self.missions.record_engine_action(lm, {})
+        self.missions.runner.publish_auctions(lm)
+        return str(auction_id)

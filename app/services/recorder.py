@@ -1,0 +1,146 @@
+"""Turns what a live mission produced since the last call into database rows.
+
+Pure bookkeeping on the stepping thread: it reads the engine's append-only event log and
+auction records by cursor and remembers how many bids and awards each auction already has
+stored, so a batch holds only new rows and the auctions whose outcome changed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+
+class _Record(Protocol):
+    def to_dict(self) -> dict[str, Any]: ...
+
+
+@dataclass
+class Batch:
+    """New rows for one mission, written in one transaction."""
+
+    mission_id: int
+    sim_time: float
+    events: list[dict[str, Any]] = field(default_factory=list)
+    new_auctions: list[dict[str, Any]] = field(default_factory=list)
+    changed_auctions: list[dict[str, Any]] = field(default_factory=list)
+    bids: list[dict[str, Any]] = field(default_factory=list)
+    awards: list[dict[str, Any]] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.events) + len(self.new_auctions) + len(self.changed_auctions)
+
+
+def auction_row(mission_id: int, d: dict[str, Any]) -> dict[str, Any]:
+    """The auctions-table row for an `AuctionRecord.to_dict()`."""
+    x, y = d["location"]
+    return {
+        "mission_id": mission_id,
+        "auction_id": d["id"],
+        "kind": d["kind"],
+        "auctioneer": d["auctioneer"],
+        "task_type": d["task_type"],
+        "location_x": float(x),
+        "location_y": float(y),
+        "status": d["status"],
+        "opened_at": d["opened_at"],
+        "closed_at": d.get("closed_at"),
+        "allocated_to": d.get("allocated_to"),
+        "reannouncements": d.get("reannouncements", 0),
+        "policy": d["policy"],
+        "task_id": d.get("task_id"),
+        "reauction_of": d.get("reauction_of"),
+    }
+
+
+@dataclass
+class Stored:
+    """What the database already holds for a mission (all zero for a new one)."""
+
+    events: int = 0
+    bids: dict[str, int] = field(default_factory=dict)
+    awards: dict[str, int] = field(default_factory=dict)
+
+
+class Recorder:
+    """Diffs one engine mission against what was already written."""
+
+    def __init__(self, mission_id: int, mission: Any, stored: Stored | None = None) -> None:
+        stored = stored or Stored()
+        self.mission_id = mission_id
+        self.mission = mission
+        self._events = stored.events
+        self._bids = dict(stored.bids)
+        self._awards = dict(stored.awards)
+        self._index: dict[str, _Record] = {}
+        self._seen_auctions = 0
+
+    def _auction(self, auction_id: str) -> _Record | None:
+        auctions = self.mission.auctions
+        if len(auctions) != self._seen_auctions or auction_id not in self._index:
+            for rec in auctions[self._seen_auctions :]:
+                self._index[rec.to_dict()["id"] if not hasattr(rec, "id") else rec.id] = rec
+            self._seen_auctions = len(auctions)
+        return self._index.get(auction_id)
+
+    def collect(self) -> Batch:
+        """Everything new since the previous call."""
+        m = self.mission
+        log = m.events
+        fresh = log[self._events :]
+        self._events = len(log)
+        batch = Batch(self.mission_id, float(m.now))
+        dirty: set[str] = set()
+        for ev in fresh:
+            batch.events.append(
+                {
+                    "mission_id": self.mission_id,
+                    "seq": ev.seq,
+                    "t": ev.t,
+                    "kind": ev.kind,
+                    "data": ev.data,
+                }
+            )
+            aid = ev.data.get("auction_id") if isinstance(ev.data, dict) else None
+            if isinstance(aid, str):
+                dirty.add(aid)
+        for aid in sorted(dirty):
+            rec = self._auction(aid)
+            if rec is not None:
+                self._add_auction(batch, rec.to_dict())
+        return batch
+
+    def _add_auction(self, batch: Batch, d: dict[str, Any]) -> None:
+        aid = d["id"]
+        row = auction_row(self.mission_id, d)
+        if aid in self._bids:
+            batch.changed_auctions.append(row)
+        else:
+            batch.new_auctions.append(row)
+            self._bids[aid] = 0
+            self._awards[aid] = 0
+        for i, b in enumerate(d.get("bids", [])[self._bids[aid] :], start=self._bids[aid]):
+            batch.bids.append(
+                {
+                    "mission_id": self.mission_id,
+                    "auction_id": aid,
+                    "idx": i,
+                    "t": b["t"],
+                    "bidder": b["bidder"],
+                    "utility": b.get("utility"),
+                    "round": b.get("round", 0),
+                }
+            )
+        self._bids[aid] = len(d.get("bids", []))
+        for i, a in enumerate(d.get("awards", [])[self._awards[aid] :], start=self._awards[aid]):
+            batch.awards.append(
+                {
+                    "mission_id": self.mission_id,
+                    "auction_id": aid,
+                    "idx": i,
+                    "t": a["t"],
+                    "winner": a["winner"],
+                    "outcome": a["outcome"],
+                }
+            )
+        self._awards[aid] = len(d.get("awards", []))

@@ -1,0 +1,148 @@
+"""The one write path: every database write runs here, in order, on a single writer thread.
+
+One thread keeps SQLite free of writer contention and preserves order: an operator action
+submitted before the next event batch is committed before it. Reads go to the shared thread
+pool with their own sessions (WAL lets them run beside the writer).
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
+from typing import Any, TypeVar
+
+from sqlalchemy import func, insert, select, update
+from sqlalchemy.orm import Session, sessionmaker
+from starlette.concurrency import run_in_threadpool
+
+from app.db.models import Action, Auction, Award, Bid, Event, Mission, utcnow
+from app.services.recorder import Batch, Stored
+
+T = TypeVar("T")
+
+LIVE_STATUSES = ("running", "paused")
+
+
+class Store:
+    """Async facade over a sessionmaker; writes are serialized on one thread."""
+
+    def __init__(self, sessions: sessionmaker[Session]) -> None:
+        self._sessions = sessions
+        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="regolith-db")
+
+    async def _write(self, fn: Callable[..., T], *args: Any) -> T:
+        loop = asyncio.get_running_loop()
+        return await loop.run_in_executor(self._writer, partial(self._in_tx, fn, *args))
+
+    def _in_tx(self, fn: Callable[..., T], *args: Any) -> T:
+        with self._sessions.begin() as session:
+            return fn(session, *args)
+
+    async def read(self, fn: Callable[..., T], *args: Any) -> T:
+        """Run `fn(session, *args)` on the thread pool with a fresh read session."""
+
+        def _run() -> T:
+            with self._sessions() as session:
+                return fn(session, *args)
+
+        return await run_in_threadpool(_run)
+
+    def close(self) -> None:
+        self._writer.shutdown(wait=True)
+
+    # -- writes ------------------------------------------------------------------------
+
+    async def create_mission(self, fields: dict[str, Any]) -> Mission:
+        return await self._write(_create_mission, fields)
+
+    async def record_action(
+        self, mission_id: int, action: dict[str, Any], replay: bool, changes: dict[str, Any]
+    ) -> Action:
+        """Commit an operator action (and the mission fields it changes) before answering."""
+        return await self._write(_record_action, mission_id, action, replay, changes)
+
+    async def write_batch(self, batch: Batch, changes: dict[str, Any] | None = None) -> None:
+        await self._write(_write_batch, batch, changes or {})
+
+    async def update_mission(self, mission_id: int, changes: dict[str, Any]) -> None:
+        await self._write(_update_mission, mission_id, changes)
+
+    async def interrupt_stale(self) -> int:
+        """Missions left running by a crash cannot be live now: mark them interrupted."""
+        return await self._write(_interrupt_stale)
+
+
+def _create_mission(session: Session, fields: dict[str, Any]) -> Mission:
+    row = Mission(created_at=utcnow(), **fields)
+    session.add(row)
+    session.flush()
+    return row
+
+
+def _record_action(
+    session: Session, mission_id: int, action: dict[str, Any], replay: bool, changes: dict[str, Any]
+) -> Action:
+    last = session.scalar(select(func.max(Action.seq)).where(Action.mission_id == mission_id))
+    row = Action(
+        mission_id=mission_id,
+        seq=0 if last is None else last + 1,
+        t=float(action["t"]),
+        kind=str(action["kind"]),
+        args=dict(action.get("args") or {}),
+        replay=replay,
+        created_at=utcnow(),
+    )
+    session.add(row)
+    if changes:
+        _update_mission(session, mission_id, changes)
+    return row
+
+
+def _write_batch(session: Session, batch: Batch, changes: dict[str, Any]) -> None:
+    if batch.events:
+        session.execute(insert(Event), batch.events)
+    if batch.new_auctions:
+        session.execute(insert(Auction), batch.new_auctions)
+    if batch.changed_auctions:
+        session.execute(update(Auction), batch.changed_auctions)
+    if batch.bids:
+        session.execute(insert(Bid), batch.bids)
+    if batch.awards:
+        session.execute(insert(Award), batch.awards)
+    _update_mission(session, batch.mission_id, {"sim_time": batch.sim_time, **changes})
+
+
+def _update_mission(session: Session, mission_id: int, changes: dict[str, Any]) -> None:
+    session.execute(update(Mission).where(Mission.id == mission_id).values(**changes))
+
+
+def _interrupt_stale(session: Session) -> int:
+    result = session.execute(
+        update(Mission).where(Mission.status.in_(LIVE_STATUSES)).values(status="interrupted")
+    )
+    return int(getattr(result, "rowcount", 0) or 0)
+
+
+def stored_counts(session: Session, mission_id: int) -> Stored:
+    """How much of a mission's log is already stored (to continue it after a replay)."""
+    events = session.scalar(select(func.count()).where(Event.mission_id == mission_id)) or 0
+    bids = session.execute(
+        select(Bid.auction_id, func.count())
+        .where(Bid.mission_id == mission_id)
+        .group_by(Bid.auction_id)
+    ).all()
+    awards = session.execute(
+        select(Award.auction_id, func.count())
+        .where(Award.mission_id == mission_id)
+        .group_by(Award.auction_id)
+    ).all()
+    auctions = session.scalars(select(Auction.auction_id).where(Auction.mission_id == mission_id))
+    stored = Stored(events=int(events))
+    for aid in auctions:
+        stored.bids[aid] = 0
+        stored.awards[aid] = 0
+    stored.bids.update({aid: int(n) for aid, n in bids})
+    stored.awards.update({aid: int(n) for aid, n in awards})
+    return stored

@@ -1,0 +1,55 @@
+"""Service configuration: one pydantic-settings object, read from `REGOLITH_*` variables."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import Field, SecretStr, field_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+_REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+def _beside_repo(name: str) -> Path:
+    """A folder shipped at the repository root (found from a checkout or from the cwd)."""
+    here = _REPO_ROOT / name
+    return here if here.is_dir() else Path.cwd() / name
+
+
+class Settings(BaseSettings):
+    """Everything the server needs; built once and passed to `create_app`, never global."""
+
+    model_config = SettingsConfigDict(env_prefix="REGOLITH_", extra="ignore")
+
+    data_dir: Path = Path("data")
+    db_url: str | None = None
+    token: SecretStr | None = None
+    read_requires_token: bool = False
+
+    frame_hz: Annotated[float, Field(gt=0, le=60)] = 10.0
+    slice_ms: Annotated[float, Field(gt=0, le=100)] = 5.0
+    flush_interval_s: Annotated[float, Field(gt=0, le=60)] = 0.25
+    max_lag_s: Annotated[float, Field(gt=0, le=60)] = 1.0
+
+    max_running_missions: Annotated[int, Field(ge=1, le=1000)] = 8
+    max_robots: Annotated[int, Field(ge=1, le=100_000)] = 500
+    max_viewers: Annotated[int, Field(ge=1, le=10_000)] = 256
+    viewer_queue: Annotated[int, Field(ge=16, le=1_000_000)] = 2000
+    ws_max_message: Annotated[int, Field(ge=64, le=1_048_576)] = 4096
+
+    cors_origins: list[str] = Field(default_factory=list)
+    frontend_dir: Path = Field(default_factory=lambda: _beside_repo("frontend"))
+    migrations_dir: Path = Field(default_factory=lambda: _beside_repo("migrations"))
+
+    @field_validator("token")
+    @classmethod
+    def _no_placeholder(cls, v: SecretStr | None) -> SecretStr | None:
+        if v is not None and (len(v.get_secret_value()) < 16 or "changeme" in v.get_secret_value()):
+            raise ValueError("REGOLITH_TOKEN must be at least 16 characters and not a placeholder")
+        return v
+
+    @property
+    def database_url(self) -> str:
+        """The given URL, or an SQLite file in the data folder."""
+        return self.db_url or f"sqlite:///{(self.data_dir / 'regolith.db').resolve()}"
