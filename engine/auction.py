@@ -202,13 +202,13 @@ class AuctionHouse:
                             winner=winner,
                         )
                     )
-                    result = yield ack | env.timeout(proto.ack_timeout_s)
+                    yield ack | env.timeout(proto.ack_timeout_s)
                     live.ack = None
-                    if result.get(ack):
+                    if ack.triggered and ack.value is True:
                         rec.awards[-1].outcome = "accepted"
                         self._close(rec, winner)
                         return
-                    outcome = "declined" if ack in result else "timeout"
+                    outcome = "declined" if ack.triggered else "timeout"
                     rec.awards[-1].outcome = outcome
                     self.ctx.note_decline(rec, winner, outcome)
                     live.declined.add(winner)
