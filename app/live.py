@@ -103,12 +103,19 @@ class Hub:
             for v in self.viewers:
                 v.push(text)
 
-    def publish_frame(self, frame: dict[str, Any]) -> None:
-        """A state frame, stamped with the server's wall clock so clients can measure delay."""
+    def publish_frame(self, frame: dict[str, Any], last: bool = False) -> None:
+        """A state frame, stamped with the server's wall clock so clients can measure delay.
+
+        The `last` frame of a mission is queued like an event: it must not be dropped.
+        """
         if self.viewers:
             text = encode({"type": "frame", "wall": time.time(), **frame})
             for v in self.viewers:
-                v.push_frame(text)
+                if last:
+                    v.frame = None
+                    v.push(text)
+                else:
+                    v.push_frame(text)
 
 
 async def _read_until_closed(ws: WebSocket, max_message: int) -> int | None:

@@ -223,7 +223,10 @@ class MissionRunner:
 
     def _publish_final(self, lm: LiveMission, status: str) -> None:
         self.publish_auctions(lm)
-        lm.hub.publish_frame({**lm.mission.frame(), "status": status})
+        try:
+            lm.hub.publish_frame({**lm.mission.frame(), "status": status}, last=True)
+        except Exception:  # a failed engine may not produce a frame; the status still goes
+            log.exception("final frame of mission %s failed", lm.id)
         lm.hub.publish(lm.status_message())
 
     async def _finish(self, lm: LiveMission, status: str) -> None:

@@ -25,8 +25,12 @@ async def _validation(_: Request, exc: Exception) -> JSONResponse:
 
 
 def _invalid(loc: tuple[Any, ...], message: str) -> JSONResponse:
-    detail = [{"loc": list(loc) or ["body"], "msg": message, "type": "value_error"}]
-    return JSONResponse({"detail": detail, "message": message}, status_code=422)
+    """A 422 shaped like FastAPI's, its message prefixed with the full field path."""
+    loc = loc or ("body",)
+    own = f"{loc[-1]}: "
+    msg = message[len(own) :] if message.startswith(own) else message
+    detail = [{"loc": list(loc), "msg": msg, "type": "value_error"}]
+    return JSONResponse({"detail": detail, "message": f"{_where(loc)}: {msg}"}, status_code=422)
 
 
 async def _service(_: Request, exc: Exception) -> JSONResponse:
@@ -38,7 +42,7 @@ async def _service(_: Request, exc: Exception) -> JSONResponse:
 
 async def _engine(_: Request, exc: Exception) -> JSONResponse:
     if isinstance(exc, ScenarioError):
-        return _invalid(("body", "scenario"), f"scenario: {exc}")
+        return _invalid(("body", "scenario"), str(exc))
     code = 404 if isinstance(exc, UnknownRobotError) else 409
     return JSONResponse({"detail": str(exc)}, status_code=code)
 

@@ -168,9 +168,13 @@ class MissionService:
     # -- reads -------------------------------------------------------------------------
 
     async def detail(self, mission_id: int) -> tuple[MissionRow, LiveMission | None]:
-        await self.settled(mission_id)
-        row = await self.row(mission_id)
-        return row, self.runner.live.get(mission_id)
+        """The stored row with the live mission, if any; never a half-finished pair."""
+        while True:
+            await self.settled(mission_id)
+            row = await self.row(mission_id)
+            lm = self.runner.live.get(mission_id)
+            if lm is None or not lm.finishing:
+                return row, lm
 
     async def page(
         self, status: str | None, policy: str | None, limit: int, offset: int
@@ -192,8 +196,9 @@ class MissionService:
         lm = self.runner.live.get(mission_id)
         if lm is not None and not lm.finishing:
             return list(lm.mission.robot_list())
-        await self.settled(mission_id)
-        row = await self.row(mission_id)
+        row, lm = await self.detail(mission_id)
+        if lm is not None:
+            return list(lm.mission.robot_list())
         return list((row.final_state or {}).get("robots", []))
 
     async def snapshot(self, mission_id: int) -> tuple[dict[str, Any], LiveMission | None]:
@@ -202,9 +207,7 @@ class MissionService:
         if lm is not None and not lm.finishing and lm.row is not None:
             m = lm.mission
             return {"row": lm.row, "map": m.world_map(), "state": m.snapshot()}, lm
-        await self.settled(mission_id)
-        row = await self.row(mission_id)
-        lm = self.runner.live.get(mission_id)
-        if lm is not None and not lm.finishing:
+        row, lm = await self.detail(mission_id)
+        if lm is not None:
             return {"row": row, "map": lm.mission.world_map(), "state": lm.mission.snapshot()}, lm
         return {"row": row, "map": row.world_map, "state": row.final_state}, None

@@ -1,0 +1,139 @@
+"""A real uvicorn server on 127.0.0.1 with a real SQLite file, started and stopped per test."""
+
+from __future__ import annotations
+
+import json
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any, TypeVar
+
+import httpx
+import pytest
+import uvicorn
+from websockets.sync.client import ClientConnection, connect
+
+from app.main import create_app
+from app.settings import Settings
+
+TOKEN = "test-operator-token-0123456789"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+T = TypeVar("T")
+
+
+class LiveServer:
+    """uvicorn in a thread on a free port; `restart()` keeps the same settings (and database)."""
+
+    def __init__(self, settings: Settings) -> None:
+        self.settings = settings
+        self.port = 0
+        self._server: uvicorn.Server | None = None
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> LiveServer:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind(("127.0.0.1", self.port))
+        self.port = sock.getsockname()[1]
+        config = uvicorn.Config(
+            create_app(self.settings), log_level="warning", ws_max_size=65536, lifespan="on"
+        )
+        self._server = server = uvicorn.Server(config)
+        self._thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
+        self._thread.start()
+        deadline = time.monotonic() + 20
+        while not server.started:
+            if not self._thread.is_alive() or time.monotonic() > deadline:
+                raise RuntimeError("server did not start")
+            time.sleep(0.02)
+        return self
+
+    def stop(self) -> None:
+        if self._server is not None and self._thread is not None:
+            self._server.should_exit = True
+            self._thread.join(timeout=30)
+            assert not self._thread.is_alive(), "server did not stop"
+        self._server = self._thread = None
+
+    def restart(self) -> None:
+        self.stop()
+        self.start()
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    def client(self, token: bool = True) -> httpx.Client:
+        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=30)
+
+    def ws(self, mission_id: int) -> ClientConnection:
+        return connect(f"ws://127.0.0.1:{self.port}/api/missions/{mission_id}/live", max_size=2**24)
+
+
+def make_settings(data_dir: Path, **overrides: Any) -> Settings:
+    return Settings(data_dir=data_dir, token=TOKEN, **overrides)
+
+
+@pytest.fixture
+def server(tmp_path: Path) -> Iterator[LiveServer]:
+    live = LiveServer(make_settings(tmp_path, frame_hz=20)).start()
+    yield live
+    live.stop()
+
+
+@pytest.fixture
+def api(server: LiveServer) -> Iterator[httpx.Client]:
+    with server.client() as client:
+        yield client
+
+
+def wait_for(probe: Callable[[], T | None], timeout: float = 30, every: float = 0.05) -> T:
+    """Poll until `probe()` returns something truthy."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = probe()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError("condition not reached in time")
+        time.sleep(every)
+
+
+def recv(ws: ClientConnection, timeout: float = 10) -> dict[str, Any]:
+    message = json.loads(ws.recv(timeout=timeout))
+    assert isinstance(message, dict)
+    return message
+
+
+def recv_until(
+    ws: ClientConnection, match: Callable[[dict[str, Any]], bool], seen: list[dict[str, Any]]
+) -> dict[str, Any]:
+    """Read messages (keeping them in `seen`) until one matches."""
+    while True:
+        message = recv(ws)
+        seen.append(message)
+        if match(message):
+            return message
+
+
+def run_to_end(api: httpx.Client, mission_id: int, timeout: float = 60) -> dict[str, Any]:
+    """Let a mission finish at full speed and return its stored record."""
+    api.put(f"/api/missions/{mission_id}/speed", json={"speed": "max"}).raise_for_status()
+
+    def finished() -> dict[str, Any] | None:
+        m: dict[str, Any] = api.get(f"/api/missions/{mission_id}").json()
+        return m if m["status"] not in ("running", "paused") else None
+
+    return wait_for(finished, timeout)
+
+
+def all_pages(api: httpx.Client, path: str, **params: Any) -> list[dict[str, Any]]:
+    """Every item of a paginated auctions listing."""
+    items: list[dict[str, Any]] = []
+    while True:
+        page = api.get(path, params={**params, "limit": 500, "offset": len(items)}).json()
+        items += page["items"]
+        if len(items) >= page["total"] or not page["items"]:
+            return items
