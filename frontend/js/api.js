@@ -1,0 +1,78 @@
+// The REST client: JSON in and out, the operator token on mutating calls.
+
+const TOKEN_KEY = "regolith.token";
+const listeners = new Set();
+
+export function getToken() {
+  try {
+    return localStorage.getItem(TOKEN_KEY) || "";
+  } catch {
+    return "";
+  }
+}
+
+export function setToken(token) {
+  if (token) localStorage.setItem(TOKEN_KEY, token);
+  else localStorage.removeItem(TOKEN_KEY);
+  for (const fn of listeners) fn(Boolean(token));
+}
+
+export const isOperator = () => Boolean(getToken());
+
+/** Call fn(isOperator) now and whenever the token changes. */
+export function onTokenChange(fn) {
+  listeners.add(fn);
+  fn(isOperator());
+}
+
+export class ApiError extends Error {
+  constructor(status, detail) {
+    super(typeof detail === "string" ? detail : describe(detail));
+    this.status = status;
+    this.detail = detail;
+  }
+}
+
+function describe(detail) {
+  if (Array.isArray(detail)) {
+    return detail.map((d) => `${(d.loc || []).filter((p) => p !== "body").join(".")}: ${d.msg}`).join("; ");
+  }
+  return detail ? JSON.stringify(detail) : "request failed";
+}
+
+export async function api(method, path, body) {
+  const headers = { Accept: "application/json" };
+  if (body !== undefined) headers["Content-Type"] = "application/json";
+  if (getToken()) headers.Authorization = `Bearer ${getToken()}`; // reads may need it too (configurable)
+  const res = await fetch(`/api${path}`, {
+    method,
+    headers,
+    body: body === undefined ? undefined : JSON.stringify(body),
+  });
+  const text = await res.text();
+  let data = null;
+  try {
+    data = text ? JSON.parse(text) : null;
+  } catch {
+    data = text;
+  }
+  if (!res.ok) {
+    let detail = data && typeof data === "object" && "detail" in data ? data.detail : data;
+    if (res.status === 401) detail = "An operator token is needed for this.";
+    if (res.status === 403) detail = "The operator token was not accepted.";
+    throw new ApiError(res.status, detail || res.statusText);
+  }
+  return data;
+}
+
+export const get = (path) => api("GET", path);
+export const post = (path, body) => api("POST", path, body ?? {});
+export const put = (path, body) => api("PUT", path, body);
+
+/** Query string from an object, skipping empty values. */
+export function qs(params) {
+  const q = new URLSearchParams();
+  for (const [k, v] of Object.entries(params)) if (v !== "" && v !== null && v !== undefined) q.set(k, v);
+  const s = q.toString();
+  return s ? `?${s}` : "";
+}

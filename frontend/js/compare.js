@@ -1,0 +1,201 @@
+// The compare page: pick finished missions (or a sweep) and see the three figures per policy.
+
+import { $, h, fmt } from "./dom.js";
+import { get, qs } from "./api.js";
+import { barChart, stripChart } from "./charts.js";
+import { KIND_LABEL, POLICY_COLOUR, POLICY_LABEL } from "./palette.js";
+import { shortId } from "./missions.js";
+
+const POLICIES = ["fcfs", "coalition", "nearest"];
+const TYPES = ["scout", "excavator", "hauler"];
+const KINDS = ["scout_excavator", "excavator_hauler"];
+
+/** Mean and a 95% confidence interval of the mean (normal approximation; t for small n). */
+export function meanCi(values) {
+  const n = values.length;
+  if (!n) return null;
+  const mean = values.reduce((a, b) => a + b, 0) / n;
+  if (n < 2) return { mean, lo: mean, hi: mean, n };
+  const sd = Math.sqrt(values.reduce((a, b) => a + (b - mean) ** 2, 0) / (n - 1));
+  const t = [12.71, 4.3, 3.18, 2.78, 2.57, 2.45, 2.36, 2.31, 2.26][n - 2] ?? 1.96;
+  const half = (t * sd) / Math.sqrt(n);
+  return { mean, lo: mean - half, hi: mean + half, n };
+}
+
+export class ComparePage {
+  constructor() {
+    this.missions = [];
+    this.selected = new Set();
+    this.metrics = new Map(); // mission id -> metrics
+    this.sweep = null;
+    this.touched = false;
+    $("#compare-all").addEventListener("click", () => {
+      for (const m of this.missions) this.selected.add(m.id);
+      this.renderList();
+      this.update();
+    });
+    $("#compare-none").addEventListener("click", () => {
+      this.touched = true;
+      this.selected.clear();
+      this.sweep = null;
+      this.renderList();
+      this.update();
+    });
+    new ResizeObserver(() => this.draw()).observe($(".compare-figs"));
+  }
+
+  async show() {
+    try {
+      const data = await get(`/missions${qs({ status: "completed", limit: 200 })}`);
+      this.missions = Array.isArray(data) ? data : data.items || [];
+    } catch {
+      this.missions = [];
+    }
+    for (const m of this.missions) if (m.metrics) this.metrics.set(m.id, m.metrics);
+    if (!this.touched) for (const m of this.missions) this.selected.add(m.id); // all, until the user picks
+    this.renderList();
+    this.loadSweeps();
+    this.update();
+  }
+
+  renderList() {
+    const rows = this.missions.map((m) =>
+      h(
+        "tr",
+        { dataset: { mission: m.id } },
+        h(
+          "td",
+          {},
+          h("input", {
+            type: "checkbox",
+            checked: this.selected.has(m.id),
+            "aria-label": `Compare mission ${m.id}`,
+            onchange: (e) => {
+              this.touched = true;
+              if (e.target.checked) this.selected.add(m.id);
+              else this.selected.delete(m.id);
+              this.sweep = null;
+              this.update();
+            },
+          }),
+        ),
+        h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
+        h("td", {}, POLICY_LABEL[m.policy] || m.policy),
+        h("td", { class: "num" }, m.seed),
+        h("td", { class: "num" }, fmt(m.metrics?.makespan_s, 0)),
+      ),
+    );
+    if (!rows.length) rows.push(h("tr", {}, h("td", { colspan: 5, class: "muted" }, "No completed missions yet.")));
+    $("#compare-table tbody").replaceChildren(...rows);
+  }
+
+  async loadSweeps() {
+    const box = $("#sweep-pick");
+    box.replaceChildren();
+    let sweeps;
+    try {
+      // ask the schema first: probing a missing route would log a 404 in the console
+      const spec = await fetch("/openapi.json").then((r) => (r.ok ? r.json() : { paths: {} }));
+      if (!spec.paths || !("/api/sweeps" in spec.paths)) return;
+      const data = await get("/sweeps");
+      sweeps = Array.isArray(data) ? data : data.items || [];
+    } catch {
+      return; // no sweep API on this server
+    }
+    if (!sweeps.length) return;
+    const sel = h(
+      "select",
+      { "aria-label": "Sweep" },
+      h("option", { value: "" }, "—"),
+      sweeps.map((s) => h("option", { value: s.id }, `${s.id} (${(s.policies || []).join(", ")} × ${s.seeds?.length ?? s.n_seeds ?? "?"} seeds)`)),
+    );
+    sel.addEventListener("change", async () => {
+      if (!sel.value) {
+        this.sweep = null;
+        return this.update();
+      }
+      try {
+        const s = await get(`/sweeps/${encodeURIComponent(sel.value)}`);
+        this.sweep = s.runs || s.results || [];
+      } catch {
+        this.sweep = [];
+      }
+      return this.update();
+    });
+    box.append(h("label", {}, "Or a sweep", sel));
+  }
+
+  async update() {
+    const missing = [...this.selected].filter((id) => !this.metrics.has(id));
+    await Promise.all(
+      missing.map(async (id) => {
+        try {
+          const m = await get(`/missions/${encodeURIComponent(id)}`);
+          if (m.metrics) this.metrics.set(id, m.metrics);
+        } catch {
+          /* left out of the figures */
+        }
+      }),
+    );
+    this.draw();
+  }
+
+  runs() {
+    if (this.sweep) return this.sweep;
+    return [...this.selected].map((id) => this.metrics.get(id)).filter(Boolean);
+  }
+
+  draw() {
+    const runs = this.runs();
+    const by = Object.fromEntries(POLICIES.map((p) => [p, runs.filter((r) => r.policy === p)]));
+    const present = POLICIES.filter((p) => by[p].length);
+    $("#compare-n").textContent = runs.length ? `· ${runs.length} runs` : "";
+    const empty = "pick finished missions";
+    stripChart(
+      $("#cmp-makespan"),
+      present.map((p) => ({ label: POLICY_LABEL[p], colour: POLICY_COLOUR[p], values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
+      { emptyText: empty },
+    );
+    const bars = (getter) =>
+      present.map((p) => {
+        const ci = meanCi(by[p].map(getter).filter(Number.isFinite));
+        return { name: POLICY_LABEL[p], value: ci ? ci.mean : 0, colour: POLICY_COLOUR[p], err: ci && ci.n > 1 ? [ci.lo, ci.hi] : undefined };
+      });
+    barChart(
+      $("#cmp-distance"),
+      TYPES.map((t) => ({ label: t, bars: bars((r) => r.distance?.[t]) })),
+      { emptyText: empty, unit: " m" },
+    );
+    barChart(
+      $("#cmp-auction"),
+      KINDS.map((k) => ({ label: KIND_LABEL[k], bars: bars((r) => r.auction_open_s?.[k]?.mean) })),
+      { emptyText: empty, unit: " s" },
+    );
+    this.summary(present, by);
+  }
+
+  summary(present, by) {
+    const table = $("#compare-summary");
+    if (!present.length) return table.replaceChildren();
+    const cell = (vals, d = 0) => {
+      const ci = meanCi(vals.filter(Number.isFinite));
+      if (!ci) return "–";
+      return ci.n > 1 ? `${fmt(ci.mean, d)} ± ${fmt(ci.hi - ci.mean, d)}` : fmt(ci.mean, d);
+    };
+    const rows = [
+      ["runs", (rs) => String(rs.length)],
+      ["makespan (s)", (rs) => cell(rs.map((r) => r.makespan_s))],
+      ...TYPES.map((t) => [`distance ${t} (m)`, (rs) => cell(rs.map((r) => r.distance?.[t]))]),
+      ...KINDS.map((k) => [`open time ${KIND_LABEL[k]} (s)`, (rs) => cell(rs.map((r) => r.auction_open_s?.[k]?.mean), 2)]),
+      ["auctions", (rs) => cell(rs.map((r) => r.auctions))],
+      ["bids", (rs) => cell(rs.map((r) => r.bids))],
+      ["declines", (rs) => cell(rs.map((r) => r.declines))],
+      ["messages", (rs) => cell(rs.map((r) => r.messages))],
+    ];
+    table.replaceChildren(
+      h("caption", { class: "sr-only" }, "Mean ± 95% confidence interval per policy"),
+      h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "mean ± 95% CI"), present.map((p) => h("th", { scope: "col", class: "num", style: `color:${POLICY_COLOUR[p]}` }, POLICY_LABEL[p])))),
+      h("tbody", {}, rows.map(([label, f]) => h("tr", {}, h("th", { scope: "row" }, label), present.map((p) => h("td", { class: "num" }, f(by[p])))))),
+    );
+  }
+}

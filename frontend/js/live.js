@@ -1,0 +1,370 @@
+// The live mission view: one WebSocket stream feeding the map, the robot list, the auction
+// feed and the charts; the operator's controls call the REST API.
+
+import { $, $$, clock, fmt, h, toast } from "./dom.js";
+import { get, getToken, isOperator, qs } from "./api.js";
+import { MapView } from "./mapview.js";
+import { AuctionFeed } from "./feed.js";
+import { RobotTable } from "./robots.js";
+import { LiveCharts } from "./livecharts.js";
+import { bindControls } from "./controls.js";
+import { POLICY_LABEL, robotType } from "./palette.js";
+
+const FINISHED = new Set(["completed", "stopped", "timeout", "failed", "cancelled"]);
+const DETAIL_MS = 1000;
+const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
+
+function pick(obj, keys) {
+  const out = {};
+  for (const k of keys) if (k in obj) out[k] = obj[k];
+  return out;
+} // robot list (paths, tasks, distance) refresh while the stream runs
+
+export class LiveView {
+  constructor() {
+    this.id = null;
+    this.ws = null;
+    this.retry = null;
+    this.poll = null;
+    this.state = this._empty();
+    this.map = new MapView($("#map"), {
+      onPick: (x, y) => this.controls.pick(x, y),
+      onCursor: (x, y) => {
+        $("#cursor-pos").textContent = x === null ? "" : `x ${fmt(x)}  y ${fmt(y)}`;
+      },
+    });
+    this.feed = new AuctionFeed($("#auction-feed"), $("#feed-count"));
+    this.table = new RobotTable($("#robot-table tbody"), $("#robot-count"), {
+      onAction: (name, action) => this.controls.robotAction(name, action),
+    });
+    this.charts = new LiveCharts(this);
+    this.controls = bindControls(this);
+    $("#toggle-truth").addEventListener("change", (e) => this.map.setOption("truth", e.target.checked));
+    $("#toggle-paths").addEventListener("change", (e) => this.map.setOption("paths", e.target.checked));
+    $("#toggle-labels").addEventListener("change", (e) => this.map.setOption("labels", e.target.checked));
+    $("#map-fit").addEventListener("click", () => this.map.fit());
+    $("#feed-open-only").addEventListener("change", (e) => $("#auction-feed").classList.toggle("open-only", e.target.checked));
+    this._expose();
+  }
+
+  _empty() {
+    return {
+      mission: null,
+      status: "",
+      policy: "",
+      speed: null,
+      t: 0,
+      frames: 0,
+      lastFrame: null,
+      robots: new Map(), // name -> latest frame robot
+      detail: new Map(), // name -> robot-list entry
+      counters: {},
+      events: [],
+    };
+  }
+
+  get finished() {
+    return FINISHED.has(this.state.status);
+  }
+
+  /** Show mission `id` (or nothing), reconnecting the stream. */
+  open(id) {
+    if (id === this.id && this.ws) return;
+    this.close();
+    this.id = id;
+    $("#live-empty").hidden = Boolean(id);
+    $("#live").hidden = !id;
+    if (!id) return;
+    this.state = this._empty();
+    this.feed.reset();
+    this.table.reset();
+    this.charts.reset();
+    $("#live-mission-id").textContent = id;
+    this.map.fitted = false;
+    this._connect();
+    this._loadHistory();
+    this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
+  }
+
+  close() {
+    clearTimeout(this.retry);
+    clearInterval(this.poll);
+    this.poll = null;
+    if (this.ws) {
+      this.ws.onclose = null;
+      this.ws.close();
+      this.ws = null;
+    }
+    this.map.stop();
+    this.id = null;
+  }
+
+  _connect(withToken = false) {
+    const id = this.id;
+    const proto = location.protocol === "https:" ? "wss" : "ws";
+    // the token goes in the URL only when the server asked for it (it closed with 1008 before)
+    const q = withToken && getToken() ? `?token=${encodeURIComponent(getToken())}` : "";
+    const ws = new WebSocket(`${proto}://${location.host}/api/missions/${encodeURIComponent(id)}/live${q}`);
+    this.ws = ws;
+    this._conn("connecting");
+    ws.onopen = () => this._conn("open");
+    ws.onmessage = (e) => {
+      let msg;
+      try {
+        msg = JSON.parse(e.data);
+      } catch {
+        return;
+      }
+      this.handle(msg);
+    };
+    ws.onclose = (e) => {
+      this._conn("closed");
+      this.ws = null;
+      if (e.code === 4404) return toast(`Mission ${id} was not found.`, "error");
+      const needToken = e.code === 1008;
+      if (needToken && (withToken || !getToken())) return toast("This server needs an operator token even to watch.", "error");
+      if (this.id === id && (!this.finished || needToken)) {
+        this.retry = setTimeout(() => this.id === id && this._connect(needToken || withToken), needToken ? 0 : 1500);
+      }
+      return undefined;
+    };
+    ws.onerror = () => {};
+  }
+
+  _conn(state) {
+    const el = $("#live-conn");
+    el.dataset.conn = state;
+    el.title = `Stream ${state}`;
+  }
+
+  /** One message from the live stream. */
+  handle(msg) {
+    switch (msg.type) {
+      case "snapshot":
+        return this._snapshot(msg);
+      case "frame":
+        return this._frame(msg);
+      case "auction":
+        return this.feed.upsert(msg.auction);
+      case "event":
+        return this._event(msg.event);
+      case "status":
+        return this._status(msg);
+      default:
+        return undefined;
+    }
+  }
+
+  _snapshot(msg) {
+    const snap = msg.state || {};
+    this.state.mission = msg.mission || this.state.mission;
+    if (msg.map) this.map.setMap(msg.map);
+    this.state.map = msg.map;
+    this.map.setSites(snap.sites || []);
+    this.map.setDropped(snap.dropped || []);
+    for (const a of snap.auctions || []) this.feed.upsert(a, { flash: false });
+    this._setDetail(snap.robots || []);
+    this._status({
+      status: msg.mission?.status ?? snap.status,
+      policy: snap.policy ?? msg.mission?.policy,
+      speed: msg.mission?.speed,
+    });
+    this._frame({ ...snap, type: "frame" }, { snap: true });
+  }
+
+  _frame(f, { snap = false } = {}) {
+    const s = this.state;
+    s.t = f.t ?? s.t;
+    s.frames += 1;
+    s.lastFrame = f;
+    if (f.counters) s.counters = f.counters;
+    if (f.status && f.status !== s.status && !(s.status === "paused" && f.status === "running")) this._status({ status: f.status });
+    const robots = f.robots || [];
+    // keep only the per-frame fields: task, distance and path come from the robot list
+    for (const r of robots) s.robots.set(r.name, pick(r, FRAME_FIELDS));
+    for (const name of [...s.robots.keys()]) if (!robots.some((r) => r.name === name)) s.robots.delete(name);
+    const typed = robots.map((r) => ({ ...r, type: s.detail.get(r.name)?.type || robotType(r) }));
+    this.map.setRobots(typed, { snap });
+    if (f.scanned) this.map.setScanned(f.scanned);
+    const canvas = $("#map");
+    canvas.dataset.robotCount = String(robots.length);
+    canvas.dataset.frameCount = String(s.frames);
+    $("#live-time").textContent = clock(s.t);
+    this.feed.tick(s.t);
+    this.map.setOpenAuctions(this.feed.open());
+    this.table.update([...s.robots.values()].map((r) => ({ ...(s.detail.get(r.name) || {}), ...r })));
+    this._counters(f);
+    this.charts.onFrame(s);
+  }
+
+  _counters(f) {
+    const c = f.counters || {};
+    const grid = this.state.map?.grid;
+    const cells = f.cells_total ?? (grid ? grid.cols * grid.rows : null);
+    const items = [
+      ["sites", `${c.sites_found ?? "–"}/${c.sites_total ?? "–"}`],
+      ["minerals", `${c.minerals_delivered ?? "–"}/${c.minerals_total ?? "–"}`],
+      ["scanned", cells && f.scanned_count !== undefined ? `${Math.round((100 * f.scanned_count) / cells)}%` : "–"],
+      ["auctions", c.auctions ?? "–"],
+      ["bids", c.bids ?? "–"],
+      ["declines", c.declines ?? "–"],
+    ];
+    const box = $("#live-counters");
+    const text = items.map(([k, v]) => `${k}=${v}`).join(";");
+    if (box.dataset.text !== text) {
+      box.dataset.text = text;
+      box.replaceChildren(...items.flatMap(([k, v]) => [h("span", {}, k), h("b", { dataset: { counter: k } }, v)]));
+    }
+  }
+
+  _event(ev) {
+    if (!ev) return;
+    const d = ev.data || {};
+    this.state.events.push(ev);
+    if (this.state.events.length > 500) this.state.events.splice(0, 250);
+    switch (ev.kind) {
+      case "site_found":
+      case "dug":
+        if (d.site || d.site_id) this._siteFromEvent(ev.kind, d);
+        break;
+      case "mineral_dropped":
+        this.map.setDropped([...this.map.scene.dropped, { x: d.x, y: d.y }]);
+        break;
+      case "mineral_recovered":
+        this.map.setDropped(this.map.scene.dropped.filter((p) => Math.hypot(p.x - d.x, p.y - d.y) > 0.05));
+        break;
+      case "policy_changed":
+        this._status({ policy: d.policy ?? d.to ?? d.new });
+        this._refreshDetail();
+        break;
+      case "robot_added":
+      case "robot_failed":
+      case "robot_disabled":
+      case "robot_enabled":
+      case "failure_detected":
+        this._refreshDetail();
+        break;
+      default:
+        break;
+    }
+  }
+
+  _siteFromEvent(kind, d) {
+    const id = d.site_id || (typeof d.site === "string" ? d.site : d.site?.id);
+    const known = this.map.scene.sites.get(id) || {};
+    const site = { id, found: true };
+    const truth = (this.state.map?.sites || []).find((s) => s.id === id);
+    site.x = d.x ?? d.site?.x ?? known.x ?? truth?.x;
+    site.y = d.y ?? d.site?.y ?? known.y ?? truth?.y;
+    site.total = d.total ?? d.minerals ?? known.total ?? truth?.minerals;
+    if (d.remaining !== undefined) site.remaining = d.remaining;
+    else if (kind === "dug") site.remaining = Math.max(0, (known.remaining ?? site.total ?? 1) - 1);
+    else site.remaining = known.remaining ?? site.total;
+    if (site.x !== undefined) this.map.setSites([site]);
+  }
+
+  _status(m) {
+    const s = this.state;
+    if (m.status) s.status = m.status;
+    if (m.policy) s.policy = m.policy;
+    if (m.speed !== undefined && m.speed !== null) s.speed = m.speed;
+    const st = $("#live-status");
+    st.textContent = s.status;
+    st.dataset.status = s.status;
+    const pol = $("#live-policy");
+    pol.dataset.policy = s.policy;
+    pol.title = `Current policy: ${POLICY_LABEL[s.policy] || s.policy}`;
+    const sel = $("#policy-select");
+    if (document.activeElement !== sel && s.policy) sel.value = s.policy;
+    const paused = s.status === "paused" || String(s.speed) === "0";
+    for (const b of $$("[data-speed]")) {
+      const on = paused ? b.dataset.speed === "0" : String(b.dataset.speed) === String(s.speed);
+      b.setAttribute("aria-pressed", on ? "true" : "false");
+    }
+    this.applyControl();
+  }
+
+  /** Enable or disable every control for the current token and mission state. */
+  applyControl() {
+    const can = isOperator() && Boolean(this.id) && !this.finished;
+    for (const el of $$("#live [data-control]")) if (!el.closest("#robot-table")) el.disabled = !can;
+    this.table.setControl(isOperator(), this.finished);
+  }
+
+  _setDetail(list) {
+    this.state.detail = new Map(list.map((r) => [r.name, r]));
+    this.map.setDetail(list);
+    this.charts.onDetail(list);
+  }
+
+  async _refreshDetail() {
+    const id = this.id;
+    if (!id || document.hidden) return;
+    try {
+      const data = await get(`/missions/${encodeURIComponent(id)}/robots`);
+      if (id !== this.id) return;
+      const list = Array.isArray(data) ? data : data.items || data.robots || [];
+      this._setDetail(list);
+      if (this.finished) {
+        clearInterval(this.poll);
+        this.poll = null;
+      }
+    } catch {
+      // the stream still shows positions; the next poll retries
+    }
+  }
+
+  async _loadHistory() {
+    const id = this.id;
+    try {
+      // the API lists auctions oldest first: read the total, then the newest page
+      const path = `/missions/${encodeURIComponent(id)}/auctions`;
+      const head = await get(`${path}${qs({ limit: 1 })}`);
+      const offset = Math.max(0, (head.total ?? 0) - 200);
+      const data = offset ? await get(`${path}${qs({ limit: 200, offset })}`) : await get(`${path}${qs({ limit: 200 })}`);
+      if (id !== this.id) return;
+      this.feed.load(Array.isArray(data) ? data : data.items || []);
+    } catch {
+      /* the stream carries new auctions anyway */
+    }
+    try {
+      const data = await get(`/missions/${encodeURIComponent(id)}/events${qs({ kind: "delivered", limit: 1000 })}`);
+      if (id !== this.id) return;
+      this.charts.loadDeliveries(Array.isArray(data) ? data : data.items || []);
+    } catch {
+      /* the chart fills from frames */
+    }
+  }
+
+  _expose() {
+    // read-only debug state for tests and the curious: the canvas itself cannot be queried
+    const view = this;
+    window.__regolith = {
+      get missionId() {
+        return view.id;
+      },
+      get status() {
+        return view.state.status;
+      },
+      get policy() {
+        return view.state.policy;
+      },
+      get frames() {
+        return view.state.frames;
+      },
+      get t() {
+        return view.state.t;
+      },
+      get map() {
+        return view.state.map;
+      },
+      get robots() {
+        return [...view.state.robots.values()].map((r) => ({ ...r }));
+      },
+      get auctions() {
+        return [...view.feed.records.values()];
+      },
+      pagePoint: (x, y) => view.map.pagePoint(x, y),
+    };
+  }
+}

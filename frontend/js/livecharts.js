@@ -1,0 +1,88 @@
+// The live view's three charts: minerals delivered over sim time, distance by robot type,
+// and auction open times by kind. Redrawn at most once a second.
+
+import { $ } from "./dom.js";
+import { barChart, stepChart, stripChart, timeTicks } from "./charts.js";
+import { KIND_COLOUR, KIND_LABEL, TYPE_COLOUR, robotType } from "./palette.js";
+
+const REDRAW_MS = 1000;
+
+/** An axis label for sim seconds, in the unit that suits the range shown. */
+function timeFmt(range) {
+  if (range < 120) return (t) => `${Math.round(t)}s`;
+  if (range < 4 * 3600) return (t) => `${+(t / 60).toFixed(1)}m`;
+  return (t) => `${+(t / 3600).toFixed(1)}h`;
+}
+
+export class LiveCharts {
+  constructor(view) {
+    this.view = view;
+    this.reset();
+    new ResizeObserver(() => this.draw()).observe($(".charts"));
+  }
+
+  reset() {
+    this.delivered = []; // [[t, count]]
+    this.last = null;
+    this.distance = {};
+    this.total = null;
+    this.t = 0;
+    this.drawnAt = 0;
+  }
+
+  onFrame(state) {
+    this.t = state.t;
+    const c = state.counters || {};
+    if (c.minerals_total !== undefined) this.total = c.minerals_total;
+    const v = c.minerals_delivered;
+    if (v !== undefined && v !== this.last) {
+      if (this.last === null && v > 0 && !this.delivered.length) this.delivered.push([state.t, v]);
+      else if (this.last !== null) this.delivered.push([state.t, v]);
+      this.last = v;
+    }
+    if (performance.now() - this.drawnAt > REDRAW_MS) this.draw();
+  }
+
+  onDetail(list) {
+    const sum = {};
+    for (const r of list) {
+      const type = robotType(r);
+      sum[type] = (sum[type] || 0) + (Number(r.distance) || 0);
+    }
+    this.distance = sum;
+  }
+
+  /** Backfill from stored `delivered` events when joining a running mission. */
+  loadDeliveries(events) {
+    if (!events.length) return;
+    const sorted = [...events].sort((a, b) => a.t - b.t || a.seq - b.seq);
+    this.delivered = sorted.map((e, i) => [e.t, e.data?.delivered ?? i + 1]);
+    this.last = this.delivered[this.delivered.length - 1][1];
+    this.draw();
+  }
+
+  draw() {
+    if ($("#live").hidden) return;
+    this.drawnAt = performance.now();
+    stepChart($("#chart-minerals"), [{ name: "delivered", colour: "#f0e442", points: this.delivered, dashedMax: this.total ?? undefined }], {
+      xMax: this.t,
+      yMax: this.total ?? 0,
+      xFmt: timeFmt(this.t),
+      xTicks: timeTicks,
+      emptyText: "no minerals delivered yet",
+    });
+    const types = ["scout", "excavator", "hauler"].filter((t) => t in this.distance);
+    barChart(
+      $("#chart-distance"),
+      types.map((t) => ({ label: t, bars: [{ name: t, value: this.distance[t], colour: TYPE_COLOUR[t] }] })),
+      { unit: " m" },
+    );
+    const times = this.view.feed.openTimes();
+    const kinds = ["scout_excavator", "excavator_hauler", "operator"].filter((k) => k in times || k !== "operator");
+    stripChart(
+      $("#chart-auctions"),
+      kinds.map((k) => ({ label: KIND_LABEL[k], colour: KIND_COLOUR[k], values: times[k] || [] })),
+      { emptyText: "no auction closed yet" },
+    );
+  }
+}

@@ -1,0 +1,145 @@
+// The missions page: the run history (filtered, paginated) and the form that starts a mission.
+
+import { $, h, fmt, toast } from "./dom.js";
+import { get, isOperator, post, qs } from "./api.js";
+import { POLICY_LABEL } from "./palette.js";
+import { parseToml } from "./toml.js";
+
+const PAGE = 20;
+
+export class MissionsPage {
+  constructor() {
+    this.offset = 0;
+    this.total = 0;
+    this.scenario = null; // parsed uploaded scenario, or null for the reference
+    this.filter = $("#history-filter");
+    this.filter.addEventListener("change", () => {
+      this.offset = 0;
+      this.refresh();
+    });
+    $("#history-refresh").addEventListener("click", () => this.refresh());
+    $("#history-prev").addEventListener("click", () => {
+      this.offset = Math.max(0, this.offset - PAGE);
+      this.refresh();
+    });
+    $("#history-next").addEventListener("click", () => {
+      this.offset += PAGE;
+      this.refresh();
+    });
+    const form = $("#start-form");
+    form.addEventListener("submit", (e) => {
+      e.preventDefault();
+      this.start(form);
+    });
+    form.scenario_file.addEventListener("change", () => this.readScenario(form));
+    for (const r of form.querySelectorAll("input[name=scenario]")) r.addEventListener("change", () => this._fileState(form));
+    this._fileState(form);
+    this.timer = null;
+  }
+
+  show() {
+    this.refresh();
+    clearInterval(this.timer);
+    this.timer = setInterval(() => !document.hidden && this.refresh(), 5000);
+  }
+
+  hide() {
+    clearInterval(this.timer);
+  }
+
+  applyControl() {
+    for (const el of document.querySelectorAll("#start-form [data-control]")) el.disabled = !isOperator();
+    this._fileState($("#start-form"));
+  }
+
+  _fileState(form) {
+    const useFile = form.querySelector("input[name=scenario]:checked").value === "file";
+    form.scenario_file.disabled = !useFile || !isOperator();
+  }
+
+  async refresh() {
+    const f = this.filter;
+    try {
+      const data = await get(`/missions${qs({ status: f.status.value, policy: f.policy.value, limit: PAGE, offset: this.offset })}`);
+      const items = Array.isArray(data) ? data : data.items || [];
+      this.total = data.total ?? items.length;
+      this.render(items);
+    } catch (err) {
+      $("#history tbody").replaceChildren(h("tr", {}, h("td", { colspan: 8, class: "muted" }, `Could not load missions: ${err.message}`)));
+    }
+  }
+
+  render(items) {
+    const rows = items.map((m) => {
+      const metrics = m.metrics || {};
+      const delivered = metrics.minerals_delivered ?? m.minerals_delivered;
+      const total = metrics.minerals_total ?? m.minerals_total;
+      return h(
+        "tr",
+        { dataset: { mission: m.id, status: m.status, policy: m.policy } },
+        h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
+        h("td", {}, h("span", { class: "badge", dataset: { status: m.status } }, m.status)),
+        h("td", {}, POLICY_LABEL[m.policy] || m.policy),
+        h("td", { class: "num" }, m.seed),
+        h("td", {}, m.scenario_name || m.scenario?.name || (typeof m.scenario === "string" ? m.scenario : "reference")),
+        h("td", { class: "num" }, metrics.makespan_s !== undefined && metrics.makespan_s !== null ? `${fmt(metrics.makespan_s, 0)} s` : "–"),
+        h("td", { class: "num" }, delivered !== undefined ? `${delivered}/${total ?? "?"}` : "–"),
+        h("td", {}, m.created_at ? new Date(m.created_at).toLocaleString() : "–"),
+      );
+    });
+    if (!rows.length) rows.push(h("tr", {}, h("td", { colspan: 8, class: "muted" }, "No missions yet. Start one with the form.")));
+    $("#history tbody").replaceChildren(...rows);
+    const last = Math.min(this.total, this.offset + items.length);
+    $("#history-page").textContent = this.total ? `${this.offset + 1}–${last} of ${this.total}` : "";
+    $("#history-prev").disabled = this.offset === 0;
+    $("#history-next").disabled = last >= this.total;
+  }
+
+  async readScenario(form) {
+    const file = form.scenario_file.files[0];
+    const out = $("#scenario-summary");
+    this.scenario = null;
+    out.textContent = "";
+    if (!file) return;
+    try {
+      const text = await file.text();
+      const data = file.name.toLowerCase().endsWith(".toml") ? parseToml(text) : JSON.parse(text);
+      if (!data || typeof data !== "object" || Array.isArray(data)) throw new Error("the file must hold one table/object");
+      this.scenario = data;
+      const team = data.team || {};
+      out.textContent = `${data.name || file.name}: ${data.width ?? 100}×${data.height ?? 100} m, ${data.sites ?? 10} sites, team ${team.scouts ?? 2}/${team.excavators ?? 4}/${team.haulers ?? 6}`;
+      form.querySelector("input[name=scenario][value=file]").checked = true;
+    } catch (err) {
+      out.textContent = `Cannot read ${file.name}: ${err.message}`;
+    }
+  }
+
+  async start(form) {
+    const err = $("#start-error");
+    err.textContent = "";
+    const body = {
+      policy: form.policy.value,
+      seed: Number(form.seed.value),
+      speed: form.speed.value === "max" ? "max" : Number(form.speed.value),
+    };
+    if (form.querySelector("input[name=scenario]:checked").value === "file") {
+      if (!this.scenario) {
+        err.textContent = "Choose a scenario file first (or use the reference scenario).";
+        return;
+      }
+      body.scenario = this.scenario;
+    }
+    try {
+      const m = await post("/missions", body);
+      toast(`Mission ${shortId(m.id)} started`);
+      location.hash = `#/live/${encodeURIComponent(m.id)}`;
+    } catch (e) {
+      err.textContent = e.message;
+    }
+  }
+}
+
+export function shortId(id) {
+  const s = String(id);
+  return s.length > 12 ? s.slice(0, 8) : s;
+}

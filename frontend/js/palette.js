@@ -1,0 +1,97 @@
+// Robot colours (Okabe–Ito, colour-blind safe) and one distinct shape per robot type.
+
+export const TYPE_COLOUR = {
+  scout: "#56b4e9", // sky blue
+  excavator: "#e69f00", // orange
+  hauler: "#cc79a7", // reddish purple
+  other: "#ffffff",
+};
+export const POLICY_COLOUR = { fcfs: "#56b4e9", coalition: "#e69f00", nearest: "#009e73" };
+export const POLICY_LABEL = {
+  fcfs: "1 · FCFS",
+  coalition: "2 · Coalitions",
+  nearest: "3 · Nearest",
+};
+export const KIND_COLOUR = { scout_excavator: "#e69f00", excavator_hauler: "#cc79a7", operator: "#56b4e9" };
+export const KIND_LABEL = { scout_excavator: "scout→exc", excavator_hauler: "exc→hauler", operator: "operator" };
+export const SITE_COLOUR = "#f0e442";
+export const FAILED_COLOUR = "#d55e00";
+export const PLANT_COLOUR = "#e6edf3";
+
+export function robotType(robot) {
+  if (robot.type) return robot.type;
+  const base = String(robot.name || "").replace(/-\d+$/, "");
+  return base in TYPE_COLOUR ? base : "other";
+}
+
+/**
+ * Trace the type's shape centred on (0, 0), pointing along +x, of radius r:
+ * scout = arrowhead, excavator = square with a blade, hauler = circle with a nose.
+ */
+export function traceShape(ctx, type, r) {
+  ctx.beginPath();
+  if (type === "scout") {
+    ctx.moveTo(r * 1.25, 0);
+    ctx.lineTo(-r * 0.85, r * 0.85);
+    ctx.lineTo(-r * 0.4, 0);
+    ctx.lineTo(-r * 0.85, -r * 0.85);
+    ctx.closePath();
+  } else if (type === "excavator") {
+    ctx.rect(-r * 0.85, -r * 0.85, r * 1.7, r * 1.7);
+    ctx.moveTo(r * 0.85, -r * 0.55);
+    ctx.lineTo(r * 1.35, -r * 0.7);
+    ctx.lineTo(r * 1.35, r * 0.7);
+    ctx.lineTo(r * 0.85, r * 0.55);
+  } else if (type === "hauler") {
+    ctx.arc(0, 0, r, 0.45, 2 * Math.PI - 0.45);
+    ctx.lineTo(r * 1.35, 0);
+    ctx.closePath();
+  } else {
+    ctx.moveTo(0, -r);
+    ctx.lineTo(r, 0);
+    ctx.lineTo(0, r);
+    ctx.lineTo(-r, 0);
+    ctx.closePath();
+  }
+}
+
+/** A small canvas glyph for tables and the legend (same shapes as the map). */
+export function glyph(type, size = 14, variant = "") {
+  const c = document.createElement("canvas");
+  const dpr = window.devicePixelRatio || 1;
+  c.width = c.height = Math.round(size * dpr);
+  const ctx = c.getContext("2d");
+  ctx.scale(dpr, dpr);
+  ctx.save();
+  ctx.translate(size / 2, size / 2);
+  ctx.rotate(-Math.PI / 2);
+  ctx.translate(-size * 0.06, 0);
+  traceShape(ctx, type, size * 0.34);
+  const colour = TYPE_COLOUR[type] || TYPE_COLOUR.other;
+  ctx.fillStyle = variant === "failed" ? "#3a3f46" : variant === "idle" ? "#11161d" : colour;
+  ctx.fill();
+  ctx.lineWidth = variant === "idle" ? 1.6 : 1;
+  ctx.strokeStyle = variant === "idle" ? colour : "#0d1117";
+  ctx.stroke();
+  ctx.restore();
+  if (variant === "failed") {
+    ctx.strokeStyle = FAILED_COLOUR;
+    ctx.lineWidth = 2;
+    ctx.beginPath();
+    ctx.moveTo(size * 0.2, size * 0.2);
+    ctx.lineTo(size * 0.8, size * 0.8);
+    ctx.moveTo(size * 0.8, size * 0.2);
+    ctx.lineTo(size * 0.2, size * 0.8);
+    ctx.stroke();
+  }
+  if (variant === "load") {
+    ctx.beginPath();
+    ctx.arc(size / 2, size / 2, size * 0.16, 0, 2 * Math.PI);
+    ctx.fillStyle = "#f0e442";
+    ctx.fill();
+  }
+  c.style.width = c.style.height = `${size}px`;
+  c.className = "glyph";
+  c.setAttribute("aria-hidden", "true");
+  return c;
+}

@@ -1,0 +1,222 @@
+"""Browser tests: a real server in a subprocess, Debian's chromium driven by pytest-playwright.
+
+The server is `uvicorn app.main:create_app --factory` on 127.0.0.1 with a temporary data
+folder (SQLite) and a known operator token. Chromium is `/usr/bin/chromium` (never a
+Playwright download); without it these tests are skipped, except under CI=true where they
+fail, because CI must run them.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+CHROMIUM = Path("/usr/bin/chromium")
+TOKEN = "e2e-operator-token-0123456789"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+REPO = Path(__file__).resolve().parents[2]
+ARTIFACTS = REPO / "test-artifacts" / "e2e"
+VIEWPORT = {"width": 1280, "height": 800}
+IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+MISSING = (
+    f"{CHROMIUM} is missing: install Debian's chromium (`make browser` as root, or "
+    "`apt-get install chromium`) to run the browser tests"
+)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark every test here `browser`; skip them all when chromium is absent (outside CI)."""
+    here = Path(__file__).parent
+    for item in items:
+        if here not in Path(str(item.fspath)).parents:
+            continue
+        item.add_marker(pytest.mark.browser)
+        if not CHROMIUM.exists() and not IN_CI:
+            item.add_marker(pytest.mark.skip(reason=MISSING))
+
+
+@pytest.fixture(scope="session")
+def browser_type_launch_args(browser_type_launch_args: dict[str, Any]) -> dict[str, Any]:
+    """Launch Debian's chromium headless, sandbox-free and without background networking."""
+    if not CHROMIUM.exists():
+        pytest.fail(f"CI=true and {MISSING}")
+    return {
+        **browser_type_launch_args,
+        "executable_path": str(CHROMIUM),
+        "headless": True,
+        "args": [
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+        ],
+    }
+
+
+class Server:
+    """The app in a uvicorn subprocess on a free port, with its own data folder."""
+
+    def __init__(self, data_dir: Path) -> None:
+        self.data_dir = data_dir
+        self.port = 0
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.log = data_dir / "server.log"
+
+    def start(self) -> Server:
+        for _ in range(5):  # a freed port can be taken again before uvicorn binds it
+            with socket.socket() as s:
+                s.bind(("127.0.0.1", 0))
+                self.port = s.getsockname()[1]
+            if self._launch():
+                return self
+        raise RuntimeError(f"the server did not start; see {self.log}:\n{self.log_text()}")
+
+    def _launch(self) -> bool:
+        env = {
+            **os.environ,
+            "REGOLITH_TOKEN": TOKEN,
+            "REGOLITH_DATA_DIR": str(self.data_dir),
+            "REGOLITH_FRONTEND_DIR": str(REPO / "frontend"),
+        }
+        cmd = [
+            sys.executable,
+            "-m",
+            "uvicorn",
+            "app.main:create_app",
+            "--factory",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(self.port),
+            "--log-level",
+            "warning",
+        ]
+        with self.log.open("ab") as out:
+            self.proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=out, stderr=out)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                return False
+            try:
+                if httpx.get(f"{self.url}/api/health", timeout=1).status_code == 200:
+                    return True
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.2)
+        self.stop()
+        return False
+
+    def stop(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=10)
+        self.proc = None
+
+    def log_text(self) -> str:
+        return self.log.read_text(errors="replace")[-4000:] if self.log.exists() else ""
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    def api(self) -> httpx.Client:
+        return httpx.Client(base_url=f"{self.url}/api", headers=AUTH, timeout=30)
+
+
+@pytest.fixture(scope="session")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    srv = Server(tmp_path_factory.mktemp("regolith-e2e")).start()
+    yield srv
+    srv.stop()
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(srv.log, ARTIFACTS / "server.log")
+
+
+@pytest.fixture
+def api(server: Server) -> Iterator[httpx.Client]:
+    with server.api() as client:
+        yield client
+
+
+@pytest.fixture
+def start_mission(api: httpx.Client) -> Iterator[Callable[..., dict[str, Any]]]:
+    """Start missions through the API; every one is stopped when the test ends."""
+    started: list[int] = []
+
+    def start(**body: Any) -> dict[str, Any]:
+        res = api.post("/missions", json={"policy": "fcfs", "seed": 1, "speed": 10, **body})
+        assert res.status_code == 201, res.text
+        mission: dict[str, Any] = res.json()
+        started.append(mission["id"])
+        return mission
+
+    yield start
+    for mid in started:
+        api.post(f"/missions/{mid}/stop")  # 409 once it has ended by itself: fine
+
+
+@pytest.fixture
+def browser_context_args(browser_context_args: dict[str, Any], server: Server) -> dict[str, Any]:
+    return {**browser_context_args, "viewport": VIEWPORT, "base_url": server.url}
+
+
+class ConsoleLog:
+    """Console errors and uncaught page errors seen by a page."""
+
+    def __init__(self) -> None:
+        self.errors: list[str] = []
+
+    def on_console(self, msg: Any) -> None:
+        if msg.type == "error":
+            self.errors.append(f"console: {msg.text}")
+
+    def on_error(self, exc: Any) -> None:
+        self.errors.append(f"pageerror: {exc}")
+
+
+@pytest.fixture
+def console(page: Any) -> ConsoleLog:
+    log = ConsoleLog()
+    page.on("console", log.on_console)
+    page.on("pageerror", log.on_error)
+    return log
+
+
+@pytest.fixture
+def operator(page: Any) -> Any:
+    """The page with the operator token already in localStorage (as if entered once)."""
+    page.add_init_script(f"window.localStorage.setItem('regolith.token', {TOKEN!r});")
+    return page
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_call(item: pytest.Item) -> Iterator[None]:
+    """Every browser test leaves a screenshot of its page under test-artifacts/e2e/, pass or
+    fail, taken right after the test body (before fixtures stop its missions)."""
+    yield
+    page = getattr(item, "funcargs", {}).get("page")
+    if page is None:
+        return
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    name = item.name.replace("/", "_").replace("[", "-").replace("]", "")
+    try:
+        page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
+    except Exception as exc:  # a crashed page must not hide the test's own failure
+        print(f"screenshot of {name} failed: {exc}")

@@ -1,0 +1,178 @@
+"""The dashboard in a real browser against a real server (issue 5's acceptance list)."""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from collections.abc import Callable
+from typing import Any
+
+import httpx
+from playwright.sync_api import Page, expect
+
+from tests.e2e.conftest import ConsoleLog
+
+Start = Callable[..., dict[str, Any]]
+
+
+def wait_for(page: Page, js: str, timeout: float = 20) -> Any:
+    """Poll a JS expression until it is truthy (page.wait_for_function would need unsafe-eval,
+    which the app's Content-Security-Policy rightly forbids)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = page.evaluate(js)
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout} s waiting for: {js}")
+        page.wait_for_timeout(100)
+
+
+def open_live(page: Page, mission_id: int) -> None:
+    """Open the live view and wait for the stream's snapshot and a few frames."""
+    page.goto(f"/#/live/{mission_id}")
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12", timeout=20_000)
+    wait_for(page, "window.__regolith && window.__regolith.frames >= 3")
+
+
+def free_point(page: Page) -> tuple[float, float]:
+    """A point on the map well clear of craters and the plant, away from the overlays."""
+    world = page.evaluate("window.__regolith.map")
+    px, py = world["plant"]["x"], world["plant"]["y"]
+    for dx, dy in [(15, 12), (-15, 12), (15, -12), (-15, -12), (20, 0), (0, 20), (-20, 0)]:
+        x, y = px + dx, py + dy
+        if all(math.hypot(x - o["x"], y - o["y"]) > o["r"] + 3 for o in world["obstacles"]):
+            return x, y
+    raise AssertionError("no free point near the plant")
+
+
+def test_page_loads_without_console_errors(
+    page: Page, console: ConsoleLog, start_mission: Start
+) -> None:
+    mission = start_mission(seed=11)
+    page.goto("/")
+    expect(page.locator("#view-missions")).to_be_visible()
+    expect(page.locator(f'#history tr[data-mission="{mission["id"]}"]')).to_be_visible()
+    page.get_by_role("link", name="Compare").click()
+    expect(page.locator("#view-compare")).to_be_visible()
+    open_live(page, mission["id"])
+    page.wait_for_timeout(1500)  # a second of frames, charts and robot-list polls
+    assert console.errors == []
+
+
+def test_start_mission_shows_twelve_moving_robots(operator: Page) -> None:
+    page = operator
+    page.goto("/#/missions")
+    form = page.locator("#start-form")
+    form.get_by_label("Policy").select_option("fcfs")
+    form.get_by_label("Seed").fill("3")
+    form.get_by_label("Speed").select_option("10")
+    form.get_by_role("button", name="Start mission").click()
+    expect(page).to_have_url(re.compile(r"#/live/\d+$"), timeout=10_000)
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12", timeout=20_000)
+    expect(page.locator("#robot-table tbody tr[data-robot]")).to_have_count(12)
+    wait_for(page, "window.__regolith.frames >= 3")
+    before = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
+    frames = page.evaluate("window.__regolith.frames")
+    wait_for(page, f"window.__regolith.frames >= {frames + 5}")
+    after = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
+    assert len(before) == len(after) == 12
+    moved = [n for n in after if math.dist(before[n], after[n]) > 0.01]
+    assert moved, "no robot moved between frames"
+    page.locator('[data-speed="0"]').click()  # leave the mission paused for the screenshot
+
+
+def test_fail_robot_shows_failed_and_reauctions_its_task(
+    operator: Page, start_mission: Start, api: httpx.Client
+) -> None:
+    page = operator
+    mission = start_mission(seed=5, speed=40)
+    open_live(page, mission["id"])
+    # wait until an excavator holds an excavation task (it won a scout's auction)
+    busy = page.locator('#robot-table tr[data-type="excavator"]').filter(
+        has=page.locator("td.task", has_text=re.compile(r"\S"))
+    )
+    expect(busy.first).to_be_visible(timeout=60_000)
+    row = busy.first
+    name = row.get_attribute("data-robot")
+    robots = {r["name"]: r for r in api.get(f"/missions/{mission['id']}/robots").json()}
+    task = robots[name]["task"]  # e.g. "excavate@(59.9,35.8)"
+    found = re.search(r"\(([-\d.]+),([-\d.]+)\)", task or "")
+    assert found, f"{name} has no task with a location: {task!r}"
+    site = (float(found[1]), float(found[2]))
+    cards = page.locator("#auction-feed li")
+    before = set(cards.evaluate_all("els => els.map(e => e.dataset.auctionId)"))
+    row.get_by_role("button", name=re.compile("^Fail")).click()
+    expect(page.locator(f'#robot-table tr[data-robot="{name}"]')).to_have_attribute(
+        "data-state", "failed", timeout=10_000
+    )
+    # the failure is noticed (missed heartbeats) and its task is auctioned again
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        seen = cards.evaluate_all(
+            "els => els.map(e => [e.dataset.auctionId, e.dataset.taskType, e.dataset.location])"
+        )
+        fresh = [
+            aid
+            for aid, kind, loc in seen
+            if aid not in before
+            and kind == "excavate"
+            and math.dist([float(v) for v in loc.split(",")], site) < 0.1
+        ]
+        if fresh:
+            break
+        page.wait_for_timeout(250)
+    else:
+        raise AssertionError(f"no new auction for {task} after {name} failed")
+    page.locator('[data-speed="0"]').click()
+
+
+def test_click_on_map_injects_a_task_whose_auction_appears(
+    operator: Page, start_mission: Start
+) -> None:
+    page = operator
+    mission = start_mission(seed=7, speed=1)
+    open_live(page, mission["id"])
+    x, y = free_point(page)
+    px, py = page.evaluate(f"window.__regolith.pagePoint({x}, {y})")
+    page.mouse.click(px, py)
+    form = page.locator("#inject-form")
+    expect(form).to_be_visible()
+    form.get_by_role("button", name="Inject task").click()
+    card = page.locator('#auction-feed li[data-kind="operator"]')
+    expect(card.first).to_be_visible(timeout=15_000)
+    loc = [float(v) for v in card.first.get_attribute("data-location").split(",")]
+    assert math.dist(loc, (x, y)) < 0.2, (loc, (x, y))
+    expect(form).to_be_hidden()
+
+
+def test_switching_policy_shows_the_new_policy(
+    operator: Page, start_mission: Start, api: httpx.Client
+) -> None:
+    page = operator
+    mission = start_mission(seed=2, speed=1)
+    open_live(page, mission["id"])
+    expect(page.locator("#live-policy")).to_have_attribute("data-policy", "fcfs")
+    page.locator("#policy-select").select_option("nearest")
+    expect(page.locator("#live-policy")).to_have_attribute("data-policy", "nearest")
+    expect(page.locator("#policy-select")).to_have_value("nearest")
+    assert api.get(f"/missions/{mission['id']}").json()["policy"] == "nearest"
+
+
+def test_without_a_token_the_controls_are_disabled(page: Page, start_mission: Start) -> None:
+    mission = start_mission(seed=4, speed=1)
+    page.goto("/#/missions")
+    expect(page.locator("#readonly-banner")).to_be_visible()
+    expect(page.locator("#operator-status")).to_have_text("Read-only")
+    expect(page.locator("#start-form button[type=submit]")).to_be_disabled()
+    open_live(page, mission["id"])
+    controls = page.locator("#live [data-control]")
+    assert controls.count() > 10
+    for i in range(controls.count()):
+        expect(controls.nth(i)).to_be_disabled()
+    # a click on the map opens no task form for a viewer
+    x, y = free_point(page)
+    px, py = page.evaluate(f"window.__regolith.pagePoint({x}, {y})")
+    page.mouse.click(px, py)
+    expect(page.locator("#inject-form")).to_be_hidden()
