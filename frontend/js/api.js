@@ -58,6 +58,7 @@ export async function api(method, path, body) {
   }
   if (!res.ok) {
     let detail = data && typeof data === "object" && "detail" in data ? data.detail : data;
+    if (data && typeof data === "object" && typeof data.message === "string") detail = data.message; // 422s name the field
     if (res.status === 401) detail = "An operator token is needed for this.";
     if (res.status === 403) detail = "The operator token was not accepted.";
     throw new ApiError(res.status, detail || res.statusText);

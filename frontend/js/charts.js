@@ -114,7 +114,7 @@ export function barChart(container, groups, { emptyText = "no data yet", unit = 
         const cx = bx + bw / 2;
         svg.append(svgEl("path", { d: `M${cx},${y(b.err[0])}V${y(b.err[1])}M${cx - 3},${y(b.err[0])}H${cx + 3}M${cx - 3},${y(b.err[1])}H${cx + 3}`, stroke: "#e6edf3", "stroke-width": 1.2, fill: "none" }));
       }
-      if (bw >= 18 && n <= 4) {
+      if (bw >= 30 && n <= 4) {
         svg.append(svgEl("text", { x: bx + bw / 2, y: top - 2, "text-anchor": "middle" }, short(b.value)));
       }
     });
@@ -144,7 +144,8 @@ export function stripChart(container, cats, { emptyText = "no data yet" } = {}) 
     });
     if (c.values.length) {
       const sorted = [...c.values].sort((a, b) => a - b);
-      const med = sorted[Math.floor(sorted.length / 2)];
+      const mid = sorted.length >> 1;
+      const med = sorted.length % 2 ? sorted[mid] : (sorted[mid - 1] + sorted[mid]) / 2;
       svg.append(svgEl("line", { x1: cx - spread - 4, x2: cx + spread + 4, y1: y(med), y2: y(med), stroke: "#e6edf3", "stroke-width": 2 }));
     }
     svg.append(svgEl("text", { x: cx, y: hgt - 4, "text-anchor": "middle" }, `${c.label} (${c.values.length})`));

@@ -4,7 +4,9 @@ import { $, h, fmt } from "./dom.js";
 import { get, qs } from "./api.js";
 import { barChart, stripChart } from "./charts.js";
 import { KIND_LABEL, POLICY_COLOUR, POLICY_LABEL } from "./palette.js";
-import { shortId } from "./missions.js";
+
+const SHORT = { fcfs: "FCFS", coalition: "Coalitions", nearest: "Nearest" };
+import { missionMetrics, shortId } from "./missions.js";
 
 const POLICIES = ["fcfs", "coalition", "nearest"];
 const TYPES = ["scout", "excavator", "hauler"];
@@ -82,7 +84,7 @@ export class ComparePage {
         h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
         h("td", {}, POLICY_LABEL[m.policy] || m.policy),
         h("td", { class: "num" }, m.seed),
-        h("td", { class: "num" }, fmt(m.metrics?.makespan_s, 0)),
+        h("td", { class: "num" }, fmt((m.metrics || this.metrics.get(m.id))?.makespan_s, 0)),
       ),
     );
     if (!rows.length) rows.push(h("tr", {}, h("td", { colspan: 5, class: "muted" }, "No completed missions yet.")));
@@ -127,16 +129,16 @@ export class ComparePage {
 
   async update() {
     const missing = [...this.selected].filter((id) => !this.metrics.has(id));
-    await Promise.all(
-      missing.map(async (id) => {
-        try {
-          const m = await get(`/missions/${encodeURIComponent(id)}`);
-          if (m.metrics) this.metrics.set(id, m.metrics);
-        } catch {
-          /* left out of the figures */
-        }
-      }),
-    );
+    for (let i = 0; i < missing.length; i += 8) {
+      // a few at a time: a long history must not flood the server
+      await Promise.all(
+        missing.slice(i, i + 8).map(async (id) => {
+          const metrics = await missionMetrics(id, "completed");
+          if (metrics) this.metrics.set(id, metrics);
+        }),
+      );
+    }
+    if (missing.length) this.renderList();
     this.draw();
   }
 
@@ -153,7 +155,7 @@ export class ComparePage {
     const empty = "pick finished missions";
     stripChart(
       $("#cmp-makespan"),
-      present.map((p) => ({ label: POLICY_LABEL[p], colour: POLICY_COLOUR[p], values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
+      present.map((p) => ({ label: SHORT[p], colour: POLICY_COLOUR[p], values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
       { emptyText: empty },
     );
     const bars = (getter) =>

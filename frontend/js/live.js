@@ -29,9 +29,7 @@ export class LiveView {
     this.state = this._empty();
     this.map = new MapView($("#map"), {
       onPick: (x, y) => this.controls.pick(x, y),
-      onCursor: (x, y) => {
-        $("#cursor-pos").textContent = x === null ? "" : `x ${fmt(x)}  y ${fmt(y)}`;
-      },
+      onCursor: (x, y) => this._hover(x, y),
     });
     this.feed = new AuctionFeed($("#auction-feed"), $("#feed-count"));
     this.table = new RobotTable($("#robot-table tbody"), $("#robot-count"), {
@@ -61,6 +59,27 @@ export class LiveView {
       counters: {},
       events: [],
     };
+  }
+
+  /** The cursor's map position, and the robot under it (name, state, task, load). */
+  _hover(x, y) {
+    const out = $("#cursor-pos");
+    if (x === null) {
+      out.textContent = "";
+      return;
+    }
+    let text = `x ${fmt(x)}  y ${fmt(y)}`;
+    const reach = 12 / this.map.view.scale; // 12 px in metres
+    let best = null;
+    for (const p of this.map.poses().values()) {
+      const d = Math.hypot(p.x - x, p.y - y);
+      if (d < reach && (!best || d < best.d)) best = { d, p };
+    }
+    if (best) {
+      const r = { ...(this.state.detail.get(best.p.name) || {}), ...best.p };
+      text += ` · ${r.name} ${r.state}${r.task ? ` · ${r.task}` : ""}${r.load ? ` · load ${r.load}` : ""}`;
+    }
+    out.textContent = text;
   }
 
   get finished() {
@@ -351,6 +370,9 @@ export class LiveView {
       },
       get frames() {
         return view.state.frames;
+      },
+      get lastCounters() {
+        return { ...view.state.counters };
       },
       get t() {
         return view.state.t;

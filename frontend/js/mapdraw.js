@@ -76,7 +76,7 @@ export function drawScene(ctx, mv, poses) {
   ctx.strokeStyle = PLANT_COLOUR;
   ctx.lineWidth = 1.5;
   ctx.stroke();
-  label(ctx, "plant", px, py + pr + 11, "#c9d4e0");
+  const plantLabel = [px - 16, py + pr, px + 16, py + pr + 13];
 
   drawSites(ctx, mv, P, s);
 
@@ -119,7 +119,7 @@ export function drawScene(ctx, mv, poses) {
 
   if (scene.options.paths) drawPaths(ctx, mv, poses, P);
   drawPairs(ctx, mv, poses, P);
-  drawRobots(ctx, mv, poses, P, s, now);
+  drawRobots(ctx, mv, poses, P, s, now, plantLabel);
 }
 
 function drawScale(ctx, mv) {
@@ -226,7 +226,7 @@ function drawPairs(ctx, mv, poses, P) {
   }
 }
 
-function drawRobots(ctx, mv, poses, P, s, now) {
+function drawRobots(ctx, mv, poses, P, s, now, plantLabel) {
   const r = Math.min(11, Math.max(6, 0.9 * s));
   const scanR = mv.map.grid.cell_w / Math.SQRT2;
   const list = [...poses.values()].sort((a, b) => (DOWN.has(b.state) ? 1 : 0) - (DOWN.has(a.state) ? 1 : 0));
@@ -291,7 +291,8 @@ function drawRobots(ctx, mv, poses, P, s, now) {
     if (mv.scene.options.labels) labels.push([shortName(rb.name), x, y - r - 5, down ? "#8796a8" : "#e6edf3"]);
   }
   // labels last, skipping any that would overlap one already drawn (a crowd at the plant)
-  const boxes = [];
+  const boxes = [plantLabel];
+  label(ctx, "plant", (plantLabel[0] + plantLabel[2]) / 2, plantLabel[3] - 2, "#c9d4e0");
   for (const [text, lx, ly, colour] of labels) {
     const w = text.length * 6.5 + 2;
     const box = [lx - w / 2, ly - 10, lx + w / 2, ly + 2];

@@ -71,7 +71,7 @@ export class MissionsPage {
 
   render(items) {
     const rows = items.map((m) => {
-      const metrics = m.metrics || {};
+      const metrics = m.metrics || metricsCache.get(m.id) || {};
       const delivered = metrics.minerals_delivered ?? m.minerals_delivered;
       const total = metrics.minerals_total ?? m.minerals_total;
       return h(
@@ -82,8 +82,8 @@ export class MissionsPage {
         h("td", {}, POLICY_LABEL[m.policy] || m.policy),
         h("td", { class: "num" }, m.seed),
         h("td", {}, m.scenario_name || m.scenario?.name || (typeof m.scenario === "string" ? m.scenario : "reference")),
-        h("td", { class: "num" }, metrics.makespan_s !== undefined && metrics.makespan_s !== null ? `${fmt(metrics.makespan_s, 0)} s` : "–"),
-        h("td", { class: "num" }, delivered !== undefined ? `${delivered}/${total ?? "?"}` : "–"),
+        h("td", { class: "num", dataset: { cell: "makespan" } }, makespanText(metrics)),
+        h("td", { class: "num", dataset: { cell: "minerals" } }, delivered !== undefined ? `${delivered}/${total ?? "?"}` : "–"),
         h("td", {}, m.created_at ? new Date(m.created_at).toLocaleString() : "–"),
       );
     });
@@ -93,6 +93,22 @@ export class MissionsPage {
     $("#history-page").textContent = this.total ? `${this.offset + 1}–${last} of ${this.total}` : "";
     $("#history-prev").disabled = this.offset === 0;
     $("#history-next").disabled = last >= this.total;
+    this.fillMetrics(items);
+  }
+
+  /** The list carries no metrics: read each mission's (cached once it has ended). */
+  async fillMetrics(items) {
+    await Promise.all(
+      items
+        .filter((m) => !m.metrics && !(metricsCache.has(m.id) && FINISHED.has(m.status)))
+        .map(async (m) => {
+          const metrics = await missionMetrics(m.id, m.status);
+          const row = document.querySelector(`#history tr[data-mission="${m.id}"]`);
+          if (!metrics || !row) return;
+          row.querySelector('[data-cell="makespan"]').textContent = makespanText(metrics);
+          row.querySelector('[data-cell="minerals"]').textContent = `${metrics.minerals_delivered ?? "–"}/${metrics.minerals_total ?? "?"}`;
+        }),
+    );
   }
 
   async readScenario(form) {
@@ -137,6 +153,26 @@ export class MissionsPage {
       err.textContent = e.message;
     }
   }
+}
+
+const FINISHED = new Set(["completed", "stopped", "timeout", "failed", "interrupted"]);
+const metricsCache = new Map(); // mission id -> metrics of a mission that has ended
+
+/** A mission's metrics (live or final); those of ended missions are read once. */
+export async function missionMetrics(id, status) {
+  if (metricsCache.has(id)) return metricsCache.get(id);
+  try {
+    const m = await get(`/missions/${encodeURIComponent(id)}`);
+    if (m.metrics && FINISHED.has(m.status ?? status)) metricsCache.set(id, m.metrics);
+    return m.metrics;
+  } catch {
+    return null;
+  }
+}
+
+function makespanText(metrics) {
+  if (metrics.makespan_s !== undefined && metrics.makespan_s !== null) return `${fmt(metrics.makespan_s, 0)} s`;
+  return metrics.sim_time_s !== undefined ? `(${fmt(metrics.sim_time_s, 0)} s)` : "–";
 }
 
 export function shortId(id) {

@@ -6,6 +6,7 @@ import math
 import re
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -176,3 +177,48 @@ def test_without_a_token_the_controls_are_disabled(page: Page, start_mission: St
     px, py = page.evaluate(f"window.__regolith.pagePoint({x}, {y})")
     page.mouse.click(px, py)
     expect(page.locator("#inject-form")).to_be_hidden()
+
+
+SCENARIO_TOML = """\
+# a small team on a small area, read by the dashboard's TOML reader
+name = "e2e-small"
+width = 60.0
+height = 60.0
+sites = 4
+minerals = 8
+random_craters = 1
+
+[team]
+scouts = 1
+excavators = 2
+haulers = 3
+
+[timing]
+dig_s = 10.0
+"""
+
+
+def test_start_mission_from_an_uploaded_toml_scenario(
+    operator: Page, api: httpx.Client, tmp_path: Path
+) -> None:
+    page = operator
+    path = tmp_path / "small.toml"
+    path.write_text(SCENARIO_TOML)
+    page.goto("/#/missions")
+    form = page.locator("#start-form")
+    form.get_by_label("Scenario file").set_input_files(str(path))
+    expect(page.locator("#scenario-summary")).to_contain_text("e2e-small")
+    form.get_by_label("Seed").fill("9")
+    form.get_by_role("button", name="Start mission").click()
+    expect(page).to_have_url(re.compile(r"#/live/\d+$"), timeout=10_000)
+    mission_id = int(page.url.rsplit("/", 1)[1])
+    try:
+        expect(page.locator("#map")).to_have_attribute("data-robot-count", "6", timeout=20_000)
+        mission = api.get(f"/missions/{mission_id}").json()
+        assert mission["scenario_name"] == "e2e-small"
+        assert mission["scenario"]["team"] == {"scouts": 1, "excavators": 2, "haulers": 3}
+        assert mission["scenario"]["timing"]["dig_s"] == 10.0
+        world = page.evaluate("window.__regolith.map")
+        assert (world["width"], world["height"]) == (60.0, 60.0)
+    finally:
+        api.post(f"/missions/{mission_id}/stop")
