@@ -84,12 +84,17 @@ export class RobotTable {
 
   _fill(row, r) {
     const state = r.alive === false && r.state !== "disabled" ? "failed" : r.state;
-    if (row.state !== state) {
+    // a gracefully disabled robot finishes its hand-over first: alive, but no longer enabled
+    const leaving = r.alive !== false && r.enabled === false && !DOWN.has(state);
+    if (row.state !== state || row.leaving !== leaving) {
       row.state = state;
+      row.leaving = leaving;
       row.tr.dataset.state = state;
+      row.tr.dataset.leaving = leaving ? "true" : "false";
       const badge = row.cells.state.firstChild;
       badge.dataset.state = state;
-      badge.textContent = state;
+      badge.textContent = leaving ? `${state} · leaving` : state;
+      badge.title = leaving ? "Disabled: finishing its current hand-over, then it stops" : "";
       this._buttons(row);
     }
     setText(row.cells.task, shortTask(r.task));
@@ -99,7 +104,7 @@ export class RobotTable {
   }
 
   _buttons(row) {
-    const down = DOWN.has(row.state);
+    const down = DOWN.has(row.state) || row.leaving;
     const off = !this.canControl || this.finished;
     // an active robot offers Disable and Fail; a robot that is down offers Enable
     row.buttons.disable.hidden = down;
