@@ -145,7 +145,8 @@ def test_click_on_map_injects_a_task_whose_auction_appears(
     card = page.locator('#auction-feed li[data-kind="operator"]')
     expect(card.first).to_be_visible(timeout=15_000)
     loc = [float(v) for v in card.first.get_attribute("data-location").split(",")]
-    assert math.dist(loc, (x, y)) < 0.2, (loc, (x, y))
+    # the form rounds to 0.1 m; the engine snaps a task within the scan radius of a known site
+    assert math.dist(loc, (x, y)) < 2.6, (loc, (x, y))
     expect(form).to_be_hidden()
 
 
