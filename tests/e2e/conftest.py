@@ -21,7 +21,7 @@ from typing import Any
 import httpx
 import pytest
 
-CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM = Path(os.environ.get("REGOLITH_CHROMIUM", "/usr/bin/chromium"))  # Debian's
 TOKEN = "e2e-operator-token-0123456789"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 REPO = Path(__file__).resolve().parents[2]

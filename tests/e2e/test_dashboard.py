@@ -264,3 +264,27 @@ def test_start_mission_from_an_uploaded_toml_scenario(
         assert (world["width"], world["height"]) == (60.0, 60.0)
     finally:
         api.post(f"/missions/{mission_id}/stop")
+
+
+TOML_CASES = [
+    SCENARIO_TOML,
+    'name = "c"\n[[craters]]\nx = 10\ny = 20.5\nr = 3\n\n[[craters]]\nx = 70\ny = 1e1\nr = 2_0\n',
+    "crater_radius = [ 2.0,\n  5.0, ]  # trailing comma\nplant = [50, 40]\n"
+    "team = { scouts = 3, haulers = 4 }\n",
+    "[bus]\nloss = 0.1\nlatency_s = +0.5\n'quoted key' = 'C:\\dir'\n\"esc\" = \"a\\tb\\u00e9\"\n"
+    "speeds.scout = 1.5\n",
+]
+
+
+def test_the_dashboard_reads_toml_like_tomllib(page: Page) -> None:
+    import tomllib
+
+    page.goto("/")
+    for text in TOML_CASES:
+        got = page.evaluate("async (text) => (await import('/js/toml.js')).parseToml(text)", text)
+        assert got == tomllib.loads(text), text
+    err = page.evaluate(
+        "async () => { try { (await import('/js/toml.js')).parseToml('a = 1\\na = 2'); }"
+        " catch (e) { return e.message; } }"
+    )
+    assert "line 2" in err and "duplicate" in err
