@@ -3,7 +3,7 @@
 import { FAILED_COLOUR, KIND_COLOUR, PLANT_COLOUR, SITE_COLOUR, TYPE_COLOUR, robotType, traceShape } from "./palette.js";
 
 const DOWN = new Set(["failed", "disabled"]);
-const WORKING = new Set(["digging", "loading", "unloading"]);
+export const WORKING = new Set(["digging", "loading", "unloading"]);
 
 export function shortName(name) {
   const m = /^([a-z])[a-z]*-(\d+)$/.exec(name);

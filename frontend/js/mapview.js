@@ -1,7 +1,7 @@
 // The live map: a Canvas 2D view of the area to scale, with zoom (wheel, +/-), pan (drag,
 // arrow keys), smooth robot motion between frames, and click-to-pick a point.
 
-import { drawScene } from "./mapdraw.js";
+import { WORKING, drawScene } from "./mapdraw.js";
 
 const DRAG_PX = 4; // a press that moves less than this is a click, not a pan
 
@@ -71,30 +71,37 @@ export class MapView {
       this.scene.robots.set(r.name, { ...(drawn || {}), ...r });
     }
     for (const name of [...this.scene.robots.keys()]) if (!seen.has(name)) this.scene.robots.delete(name);
+    this.dirty = true;
     this.start();
   }
 
   setDetail(list) {
+    this.dirty = true;
     this.scene.detail = new Map(list.map((r) => [r.name, r]));
   }
 
   setSites(sites) {
+    this.dirty = true;
     for (const s of sites) this.scene.sites.set(s.id, { ...(this.scene.sites.get(s.id) || {}), ...s });
   }
 
   setDropped(points) {
+    this.dirty = true;
     this.scene.dropped = points || [];
   }
 
   setOpenAuctions(list) {
+    this.dirty = true;
     this.scene.openAuctions = list;
   }
 
   setOption(key, value) {
+    this.dirty = true;
     this.scene.options[key] = value;
   }
 
   setPick(point) {
+    this.dirty = true;
     this.scene.pick = point;
   }
 
@@ -129,6 +136,7 @@ export class MapView {
       img.data[p + 3] = 46;
     }
     g.putImageData(img, 0, 0);
+    this.dirty = true;
   }
 
   // ---- view transform ----
@@ -275,12 +283,21 @@ export class MapView {
     return out;
   }
 
+  /** Whether anything on the map moves by itself now (gliding robots, pulses, dashes). */
+  _animating(now) {
+    if (this.scene.openAuctions.length) return true;
+    for (const m of this.motion.values()) if (now - m.start < m.dur) return true;
+    for (const r of this.scene.robots.values()) if (WORKING.has(r.state)) return true;
+    return false;
+  }
+
+  /** Redraw on every animation frame while something moves, else only when data changes. */
   start() {
     if (this.running) return;
     this.running = true;
     const tick = () => {
       if (!this.running) return;
-      this.draw();
+      if (this.dirty || this._animating(performance.now())) this.draw();
       requestAnimationFrame(tick);
     };
     requestAnimationFrame(tick);
@@ -291,6 +308,7 @@ export class MapView {
   }
 
   draw() {
+    this.dirty = false;
     const { ctx, canvas } = this;
     ctx.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
     ctx.clearRect(0, 0, canvas.width, canvas.height);
