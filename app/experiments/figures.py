@@ -7,7 +7,7 @@ draw while another does the same. Output is byte-stable: no dates in SVG or PNG 
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -56,6 +56,16 @@ def figure_specs(cols: Sequence[str]) -> list[FigureSpec]:
         specs.append(
             FigureSpec("makespan", "Mission makespan", "makespan", "s", (Panel("makespan", mk),))
         )
+    if "makespan_ratio" in cols:
+        specs.append(
+            FigureSpec(
+                "makespan_ratio",
+                "Makespan / lower bound (1 = provably optimal)",
+                "makespan / lower bound",
+                "×",
+                (Panel("makespan / lower bound", "makespan_ratio"),),
+            )
+        )
     dist = [
         (t, c) for t in ROBOT_TYPES if (c := _first(cols, rf"^distance\w*_{t}s?(_total|_sum)?$"))
     ]
@@ -77,7 +87,7 @@ def figure_specs(cols: Sequence[str]) -> list[FigureSpec]:
 
 def draw(
     spec: FigureSpec,
-    data: dict[str, dict[str, Sequence[float | None]]],
+    data: Mapping[str, Mapping[str, Sequence[float | None]]],
     out_dir: Path,
 ) -> list[Path]:
     """Box + strip per policy in each panel, the mean with its 95% CI on top; PNG and SVG.
@@ -98,7 +108,7 @@ def draw(
     return [png, svg]
 
 
-def _panel(ax: Axes, groups: dict[str, Sequence[float | None]], title: str, ylabel: str) -> None:
+def _panel(ax: Axes, groups: Mapping[str, Sequence[float | None]], title: str, ylabel: str) -> None:
     labels = list(groups)
     values = [np.asarray([v for v in groups[k] if v is not None], dtype=float) for k in labels]
     pos = np.arange(1, len(labels) + 1)
@@ -121,7 +131,9 @@ def _panel(ax: Axes, groups: dict[str, Sequence[float | None]], title: str, ylab
         ax.scatter(xs, v, s=9, alpha=0.45, color=color, linewidths=0, zorder=2)
         d = describe(list(v))
         if d.mean is not None:
-            err = [[d.mean - d.ci_low], [d.ci_high - d.mean]] if d.ci_low is not None else None
+            err = None
+            if d.ci_low is not None and d.ci_high is not None:
+                err = [[d.mean - d.ci_low], [d.ci_high - d.mean]]
             ax.errorbar(
                 pos[i] + 0.3, d.mean, yerr=err, fmt="D", color="black", ms=4, capsize=3, zorder=3
             )

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from app.experiments.bound import BoundFn, bound_columns
 from app.experiments.figures import draw, figure_specs
 from app.experiments.journal import write_atomic
 from app.experiments.report import render_report, verdict
@@ -16,11 +17,23 @@ from app.experiments.table import numeric_columns, run_rows, write_csv
 FIG_DIR = "figures"
 
 
-def write_outputs(spec: SweepSpec, records: list[dict[str, Any]], out_dir: Path) -> list[Path]:
-    """Regenerate every derived file from the journal's records (idempotent)."""
+def write_outputs(
+    spec: SweepSpec,
+    records: list[dict[str, Any]],
+    out_dir: Path,
+    bound_fn: BoundFn | None = None,
+) -> list[Path]:
+    """Regenerate every derived file from the journal's records (idempotent).
+
+    With `bound_fn` (the engine's world → makespan lower bound) each run also gets
+    lower_bound_s and makespan_ratio, and bounds.csv lists every term per seed.
+    """
     out_dir = Path(out_dir)
     rows = run_rows(spec, records)
     files = [out_dir / "runs.csv"]
+    if bound_fn is not None:
+        files.append(out_dir / "bounds.csv")
+        write_csv(bound_columns(rows, spec.scenario, bound_fn), files[-1])
     write_csv(rows, files[0])
     summary = build_summary(spec, rows, records)
     labels = {p.name: p.label for p in spec.policies}

@@ -19,9 +19,12 @@ def fmt_p(p: float | None) -> str:
     return "p<0.0001" if p < 1e-4 else f"p={p:.2g}" if p < 0.01 else f"p={p:.3f}"
 
 
-def fmt_num(x: float | None, digits: int = 1) -> str:
+def fmt_num(x: float | None, digits: int | None = None) -> str:
+    """Thousands separators; by default 1 decimal, 2 below 10 (ratios, short times)."""
     if x is None:
         return "–"
+    if digits is None:
+        digits = 2 if abs(x) < 10 else 1
     return f"{x:,.{digits}f}" if abs(x) < 1e6 else f"{x:.3g}"
 
 
@@ -54,44 +57,58 @@ def panel_verdict(
     head += ", 95% CI)." if half is not None else f", n={d['n']})."
     if len(have) == 1:
         return head
-    sig, nonsig = [], []
+    welch: tuple[list[str], list[str]] = ([], [])
+    pair: tuple[list[str], list[str]] = ([], [])
+    alpha = summary["alpha"]
     for other in have:
-        if other == best:
-            continue
-        found = _pair(metric["pairwise"], best.name, other.name)
+        found = _pair(metric["pairwise"], best.name, other.name) if other != best else None
         if found is None:
             continue
         c, sign = found
         eff = "" if c["cohen_d"] is None else f", d={sign * c['cohen_d']:.2f}"
-        mw_sig = c["mwu_p_holm"] is not None and c["mwu_p_holm"] < summary["alpha"]
+        mw = c["mwu_p_holm"]
         note = ""
-        if mw_sig != c["significant"] and c["mwu_p_holm"] is not None:
-            note = f"; Mann–Whitney {fmt_p(c['mwu_p_holm'])} disagrees"
-        text = f"{other.label} ({fmt_p(c['welch_p_holm'])}{eff}{note})"
-        (sig if c["significant"] else nonsig).append(text)
+        if mw is not None and (mw < alpha) != c["significant"]:
+            note = f"; Mann–Whitney {fmt_p(mw)} disagrees"
+        welch[0 if c["significant"] else 1].append(
+            f"{other.label} ({fmt_p(c['welch_p_holm'])}{eff}{note})"
+        )
+        if c.get("paired_t_p_holm") is not None:
+            wx = c.get("wilcoxon_p_holm")
+            wnote = ""
+            if wx is not None and (wx < alpha) != c["significant_paired"]:
+                wnote = f"; Wilcoxon {fmt_p(wx)} disagrees"
+            pair[0 if c["significant_paired"] else 1].append(
+                f"{other.short} ({fmt_p(c['paired_t_p_holm'])}{wnote})"
+            )
+    parts = [head, _tests_sentence("Unpaired (Welch)", *welch)]
+    if pair[0] or pair[1]:
+        parts.append(_tests_sentence("Paired by seed (same worlds)", *pair))
+    return " ".join(parts)
+
+
+def _tests_sentence(test: str, sig: list[str], nonsig: list[str]) -> str:
     if sig and nonsig:
-        tail = (
-            f"It is significantly lower than {_join(sig)}; there is no significant "
+        return (
+            f"{test}, it is significantly lower than {_join(sig)}, with no significant "
             f"difference to {_join(nonsig)}."
         )
-    elif sig:
-        tail = f"The difference to {_join(sig)} is significant."
-    else:
-        tail = f"But there is no significant difference to {_join(nonsig)}."
-    return f"{head} {tail}"
+    if sig:
+        return f"{test}, it is significantly lower than {_join(sig)}."
+    return f"{test}, there is no significant difference to {_join(nonsig)}."
 
 
 def _join(items: list[str]) -> str:
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
 
 
-def verdict(fs: FigureSpec, summary: dict[str, Any], spec: SweepSpec) -> str:
-    """One paragraph per figure: a sentence group per panel."""
+def verdict(fs: FigureSpec, summary: dict[str, Any], spec: SweepSpec) -> list[str]:
+    """A few sentences per panel of a figure."""
     out = []
     for panel in fs.panels:
         quantity = f"{panel.noun} {fs.quantity}" if panel.noun else fs.quantity
         out.append(panel_verdict(spec, summary, panel.column, quantity, fs.unit))
-    return " ".join(out)
+    return out
 
 
 def seed_ranges(seeds: tuple[int, ...] | list[int]) -> str:
@@ -139,8 +156,9 @@ def _table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -> list
 def _tests_table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -> list[str]:
     labels = {p.name: p.short for p in spec.policies}
     lines = [
-        "| metric | a vs b | mean a−b | Welch p (Holm) | Mann–Whitney p (Holm) | Cohen's d | r |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
+        "| metric | a vs b | mean a−b | Welch p | Mann–Whitney p | paired t p | Wilcoxon p "
+        "| Cohen's d | r |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for col in columns:
         for c in summary["metrics"][col]["pairwise"]:
@@ -149,7 +167,9 @@ def _tests_table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -
             star = " *" if c["significant"] else ""
             lines.append(
                 f"| `{col}` | {labels[c['a']]} vs {labels[c['b']]} | {fmt_num(c['mean_diff'], 2)}"
-                f" | {fmt_p(c['welch_p_holm'])}{star} | {fmt_p(c['mwu_p_holm'])} | {d} | {r} |"
+                f" | {fmt_p(c['welch_p_holm'])}{star} | {fmt_p(c['mwu_p_holm'])}"
+                f" | {fmt_p(c.get('paired_t_p_holm'))} | {fmt_p(c.get('wilcoxon_p_holm'))}"
+                f" | {d} | {r} |"
             )
     return lines
 
@@ -185,10 +205,18 @@ def render_report(spec: SweepSpec, summary: dict[str, Any]) -> str:
             f"[SVG]({f['svg']}) · box: quartiles and median over runs; dots: runs; "
             "diamond: mean with 95% CI.",
             "",
-            f"**Verdict.** {f['verdict']}",
-            "",
         ]
-    lines += ["## Pairwise tests", "", "`*`: significant after Holm correction.", ""]
+        if len(f["verdict"]) == 1:
+            lines += [f"**Verdict.** {f['verdict'][0]}", ""]
+        else:
+            lines += ["**Verdict.**", "", *[f"- {v}" for v in f["verdict"]], ""]
+    lines += [
+        "## Pairwise tests",
+        "",
+        "All p-values Holm-adjusted over the policy pairs of each metric; `*`: Welch "
+        "significant. Paired tests match runs by seed (the same world for every policy).",
+        "",
+    ]
     lines += [*_tests_table(spec, summary, key_cols), ""]
     lines += ["## All metrics", "", *_table(spec, summary, list(summary["metrics"])), ""]
     lines += ["## Method", "", summary["tests"] + ".", ""]

@@ -7,21 +7,26 @@ are the unit of analysis: one number per run and metric, seeds independent.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats as sps
+from scipy import stats as sps  # type: ignore[import-untyped]
+
+Values = Sequence[float | None] | np.ndarray
+"""One value per run; None (or NaN) where a run has no value for the metric."""
 
 CONFIDENCE = 0.95
 ALPHA = 0.05
 
 
-def _clean(x: Sequence[float | None]) -> np.ndarray:
+def _clean(x: Values) -> np.ndarray:
     """Drop missing values: a metric absent from a run (e.g. no auctions of a kind) has no value."""
     arr = np.asarray([v for v in x if v is not None], dtype=float)
-    return arr[np.isfinite(arr)]
+    out: np.ndarray = arr[np.isfinite(arr)]
+    return out
 
 
 @dataclass(frozen=True)
@@ -47,7 +52,7 @@ class Describe:
         return d
 
 
-def describe(x: Sequence[float | None], confidence: float = CONFIDENCE) -> Describe:
+def describe(x: Values, confidence: float = CONFIDENCE) -> Describe:
     """n, mean, sample std (ddof=1) and the t-based CI of the mean (none for n < 2)."""
     a = _clean(x)
     n = int(a.size)
@@ -63,19 +68,19 @@ def describe(x: Sequence[float | None], confidence: float = CONFIDENCE) -> Descr
     )
 
 
-def welch_p(a: Sequence[float | None], b: Sequence[float | None]) -> float | None:
+def welch_p(a: Values, b: Values) -> float | None:
     """Two-sided Welch t-test p-value; two constant samples give 1 if equal, else 0."""
     x, y = _clean(a), _clean(b)
     if x.size < 2 or y.size < 2:
         return None
     if x.std() == 0 and y.std() == 0:
         return 1.0 if x.mean() == y.mean() else 0.0
-    return float(sps.ttest_ind(x, y, equal_var=False).pvalue)
+    with warnings.catch_warnings():  # near-identical samples: scipy warns, the p-value stands
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return float(sps.ttest_ind(x, y, equal_var=False).pvalue)
 
 
-def mann_whitney(
-    a: Sequence[float | None], b: Sequence[float | None]
-) -> tuple[float, float] | None:
+def mann_whitney(a: Values, b: Values) -> tuple[float, float] | None:
     """Two-sided Mann–Whitney U (U of `a`, p-value); no test if every value is tied."""
     x, y = _clean(a), _clean(b)
     if x.size == 0 or y.size == 0:
@@ -86,7 +91,7 @@ def mann_whitney(
     return float(res.statistic), float(res.pvalue)
 
 
-def cohen_d(a: Sequence[float | None], b: Sequence[float | None]) -> float | None:
+def cohen_d(a: Values, b: Values) -> float | None:
     """(mean a − mean b) / pooled sd; positive when `a` is larger."""
     x, y = _clean(a), _clean(b)
     if x.size < 2 or y.size < 2:
@@ -117,6 +122,35 @@ def holm(pvalues: Sequence[float | None]) -> list[float | None]:
     return out
 
 
+def paired(
+    a: Sequence[float | None], b: Sequence[float | None]
+) -> tuple[int, float | None, float | None]:
+    """Paired t-test and Wilcoxon signed-rank p-values over positions where both have a value.
+
+    Every policy runs the same seeds, so run i of a and run i of b share their world; pairing
+    removes the world-to-world spread that the unpaired tests must carry.
+    """
+    both = [(float(x), float(y)) for x, y in zip(a, b, strict=True) if _ok(x) and _ok(y)]  # type: ignore[arg-type]
+    n = len(both)
+    if n < 2:
+        return n, None, None
+    diff = np.asarray([x - y for x, y in both], dtype=float)
+    if np.all(diff == 0):
+        return n, 1.0, 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        if np.all(diff == diff[0]):  # a constant nonzero difference: no spread to test
+            t_p = 0.0
+        else:
+            t_p = float(sps.ttest_rel([x for x, _ in both], [y for _, y in both]).pvalue)
+        w_p = float(sps.wilcoxon(diff).pvalue)
+    return n, t_p, w_p
+
+
+def _ok(v: float | None) -> bool:
+    return v is not None and math.isfinite(v)
+
+
 @dataclass(frozen=True)
 class Comparison:
     """One metric, one pair of policies: `a` minus `b`."""
@@ -133,22 +167,36 @@ class Comparison:
     mwu_p_holm: float | None
     cohen_d: float | None
     rank_biserial: float | None
+    n_pairs: int = 0
+    paired_t_p: float | None = None
+    paired_t_p_holm: float | None = None
+    wilcoxon_p: float | None = None
+    wilcoxon_p_holm: float | None = None
 
     @property
     def significant(self) -> bool:
+        """The headline call: Holm-adjusted Welch p below α."""
         return self.welch_p_holm is not None and self.welch_p_holm < ALPHA
+
+    @property
+    def significant_paired(self) -> bool:
+        return self.paired_t_p_holm is not None and self.paired_t_p_holm < ALPHA
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["significant"] = self.significant
+        d["significant_paired"] = self.significant_paired
         return d
 
 
-def pairwise(groups: dict[str, Sequence[float | None]]) -> list[Comparison]:
+def pairwise(
+    groups: Mapping[str, Sequence[float | None]], aligned: bool = False
+) -> list[Comparison]:
     """Every pair of groups (in the given order), Holm-corrected within this metric.
 
-    The family is the k·(k−1)/2 pairs of one metric; Welch and Mann–Whitney p-values are
-    corrected separately.
+    The family is the k·(k−1)/2 pairs of one metric; each test's p-values are corrected
+    separately. With `aligned` (position i of every group is the same seed) the paired
+    tests are added.
     """
     names = list(groups)
     pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
@@ -158,9 +206,12 @@ def pairwise(groups: dict[str, Sequence[float | None]]) -> list[Comparison]:
         mw = mann_whitney(x, y)
         diff = float(x.mean() - y.mean()) if x.size and y.size else None
         rb = rank_biserial(mw[0], x.size, y.size) if mw else None
-        raw.append((a, b, x.size, y.size, diff, welch_p(x, y), mw, cohen_d(x, y), rb))
+        pr = paired(groups[a], groups[b]) if aligned else (0, None, None)
+        raw.append((a, b, x.size, y.size, diff, welch_p(x, y), mw, cohen_d(x, y), rb, pr))
     wh = holm([r[5] for r in raw])
     mh = holm([r[6][1] if r[6] else None for r in raw])
+    th = holm([r[9][1] for r in raw])
+    xh = holm([r[9][2] for r in raw])
     return [
         Comparison(
             a=a,
@@ -175,6 +226,11 @@ def pairwise(groups: dict[str, Sequence[float | None]]) -> list[Comparison]:
             mwu_p_holm=mh[i],
             cohen_d=d,
             rank_biserial=rb,
+            n_pairs=pr[0],
+            paired_t_p=pr[1],
+            paired_t_p_holm=th[i],
+            wilcoxon_p=pr[2],
+            wilcoxon_p_holm=xh[i],
         )
-        for i, (a, b, na, nb, diff, wp, mw, d, rb) in enumerate(raw)
+        for i, (a, b, na, nb, diff, wp, mw, d, rb, pr) in enumerate(raw)
     ]

@@ -20,11 +20,13 @@ SCHEMA = 1
 def groups_by_policy(
     spec: SweepSpec, rows: list[dict[str, Scalar]], column: str
 ) -> dict[str, list[float | None]]:
-    """One value per run of each policy, in the spec's policy order."""
-    out: dict[str, list[float | None]] = {p.name: [] for p in spec.policies}
+    """One value per seed of each policy (None where missing), aligned by seed across policies."""
+    at = {s: i for i, s in enumerate(spec.seeds)}
+    out: dict[str, list[float | None]] = {p.name: [None] * len(at) for p in spec.policies}
     for row in rows:
         v = row.get(column)
-        out[str(row["policy"])].append(None if v is None else float(v))  # type: ignore[arg-type]
+        i = at[int(row["seed"])]  # type: ignore[arg-type]
+        out[str(row["policy"])][i] = None if v is None else float(v)  # type: ignore[arg-type]
     return out
 
 
@@ -36,7 +38,9 @@ def build_summary(
         groups = groups_by_policy(spec, rows, col)
         metrics[col] = {
             "per_policy": {name: describe(vals).to_dict() for name, vals in groups.items()},
-            "pairwise": [c.to_dict() for c in pairwise(groups)] if len(groups) > 1 else [],
+            "pairwise": [c.to_dict() for c in pairwise(groups, aligned=True)]
+            if len(groups) > 1
+            else [],
         }
     status: dict[str, dict[str, int]] = {}
     if any("status" in r for r in rows):
@@ -44,7 +48,7 @@ def build_summary(
             counts = Counter(str(r.get("status")) for r in rows if r["policy"] == p.name)
             status[p.name] = dict(sorted(counts.items()))
     walls = [float(r["run_wall_s"]) for r in records if r.get("run_wall_s") is not None]
-    return _finite(
+    summary: dict[str, Any] = _finite(
         {
             "schema": SCHEMA,
             "scenario": {
@@ -61,8 +65,10 @@ def build_summary(
             "confidence": CONFIDENCE,
             "alpha": ALPHA,
             "tests": "two-sided Welch t-test and Mann–Whitney U per metric and pair of policies, "
-            "Holm-corrected over the pairs of each metric; effect sizes Cohen's d (pooled sd) "
-            "and rank-biserial r, both positive when policy a is larger",
+            "Holm-corrected over the pairs of each metric (the verdicts use Welch); effect "
+            "sizes Cohen's d (pooled sd) and rank-biserial r, both positive when policy a is "
+            "larger. Every policy runs the same seeds (same worlds), so paired tests by seed "
+            "(paired t, Wilcoxon signed-rank; Holm-corrected the same way) are reported too",
             "metrics": metrics,
             "compute": {
                 "run_wall_s_total": round(sum(walls), 3),
@@ -70,6 +76,7 @@ def build_summary(
             },
         }
     )
+    return summary
 
 
 def _finite(value: Any) -> Any:

@@ -47,7 +47,7 @@ def run_rows(spec: SweepSpec, records: Iterable[dict[str, Any]]) -> list[dict[st
             "policy": policy.name,
             "policy_number": policy.number,
             "seed": int(rec["seed"]),
-            "scenario": rec["scenario"],
+            "scenario_hash": rec["scenario"],
         }
         for k, v in flatten(metrics).items():
             row.setdefault(k, v)
@@ -67,7 +67,7 @@ def columns(rows: Iterable[Mapping[str, Scalar]]) -> list[str]:
 
 def numeric_columns(rows: list[dict[str, Scalar]]) -> list[str]:
     """Columns that hold numbers (not bools) in at least one run: the ones worth summarizing."""
-    skip = {"policy", "policy_number", "seed", "scenario"}
+    skip = {"policy", "policy_number", "seed", "scenario", "scenario_hash"}
     out = []
     for col in columns(rows):
         if col in skip:

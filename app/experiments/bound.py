@@ -1,0 +1,280 @@
+"""A lower bound on a mission's makespan from its scenario and world alone.
+
+The bound holds for every allocation policy, decentralized or central: it uses only the
+physics (speeds, the straight line as the shortest path), the task chain (find → dig →
+transfer → haul → unload), the scouts' spiral (SPEC §2, fixed before any auction) and the
+robots' start ring. docs/experiments.md derives each term; `makespan / bound` then says how
+far a run is from the best any allocator could possibly do.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+Point = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class BoundWorld:
+    """What the bound needs: geometry, team and timing. No robot decisions."""
+
+    plant: Point
+    sites: tuple[tuple[float, float, int], ...]  # x, y, minerals
+    scout_routes: tuple[tuple[Point, ...], ...]  # each scout's waypoints in spiral order
+    start_spread: float  # every robot starts within this distance of the plant
+    craters: tuple[tuple[float, float, float], ...]  # x, y, radius
+    clearance: float  # the planner keeps this far from rims (plus a safety margin)
+    scan_radius: float
+    scouts: int
+    excavators: int
+    haulers: int
+    v_scout: float
+    v_excavator: float
+    v_hauler: float
+    dig_s: float
+    transfer_s: float
+    unload_s: float
+
+
+@dataclass(frozen=True)
+class Bound:
+    value: float
+    terms: dict[str, float]  # every term; the bound is their maximum
+    found_s: tuple[float, ...]  # per site: no scout can have found it earlier
+
+
+def found_bounds(w: BoundWorld) -> np.ndarray:
+    """Per site, the earliest time any scout on its spiral route can come within scan range.
+
+    A scout drives its waypoints A₁, A₂, … in order at constant speed, starting within σ of
+    the plant P. It has driven at least p₁ = max(0, |A₁−P|−σ) on reaching A₁ and at least
+    pᵢ₊₁ = pᵢ + |Aᵢ−Aᵢ₊₁| on reaching Aᵢ₊₁ (straight lines are shortest). A leg whose
+    straight segment is clear of every inflated crater is driven straight (the engine's
+    planners return the segment itself), so a site is seen on it exactly where the segment
+    first comes within r. On any other leg the scout stays within (arclength since Aᵢ) of
+    Aᵢ, so it cannot see site x before pᵢ + max(0, |Aᵢ−x|−r).
+    """
+    px, py = w.plant
+    xy = np.asarray([(s[0], s[1]) for s in w.sites], dtype=float).reshape(-1, 2)
+    d_plant = np.hypot(xy[:, 0] - px, xy[:, 1] - py)
+    r = w.scan_radius * (1 + 1e-9) + 1e-9  # a hair wider: only ever earlier
+    reach_any = np.maximum(0.0, d_plant - w.start_spread - r)  # any path from the start ring
+    best = np.full(len(xy), np.inf)
+    for route in w.scout_routes:
+        if not route:
+            continue
+        a = np.asarray(route, dtype=float)
+        # the first leg: straight if the disc around P holding the start and A₁ is clear
+        rho = max(w.start_spread, math.hypot(a[0, 0] - px, a[0, 1] - py))
+        if _disc_clear(w, rho):
+            best = np.minimum(best, np.where(d_plant - r <= rho, reach_any, np.inf))
+        else:
+            best = np.minimum(best, reach_any)
+        first = max(0.0, math.hypot(a[0, 0] - px, a[0, 1] - py) - w.start_spread)
+        leg = np.hypot(np.diff(a[:, 0]), np.diff(a[:, 1]))
+        prefix = first + np.concatenate([[0.0], np.cumsum(leg)])[:-1]
+        straight = np.asarray([_segment_clear(w, a[i], a[i + 1]) for i in range(len(leg))])
+        for lo in range(0, len(xy), 64):  # sites in chunks: memory stays small when scaled
+            chunk = xy[lo : lo + 64]
+            t = _leg_bounds(a, leg, prefix, straight, chunk, r)
+            best[lo : lo + 64] = np.minimum(best[lo : lo + 64], t)
+        # sitting at the last waypoint: seen only if within r of it (covered by the legs)
+    return np.asarray(best / w.v_scout)
+
+
+def _leg_bounds(
+    a: np.ndarray,
+    leg: np.ndarray,
+    prefix: np.ndarray,
+    straight: np.ndarray,
+    x: np.ndarray,
+    r: float,
+) -> np.ndarray:
+    """Per site in x: the least arclength at which some leg of route a can see it."""
+    if len(leg) == 0:
+        d0 = np.hypot(x[:, 0] - a[0, 0], x[:, 1] - a[0, 1])
+        return np.where(d0 <= r, 0.0, np.inf) + (prefix[0] if len(prefix) else 0.0)
+    p0 = a[None, :-1, :]
+    dv = (a[1:] - a[:-1])[None, :, :]
+    f = p0 - x[:, None, :]
+    aa = (dv**2).sum(-1)
+    bb = 2.0 * (f * dv).sum(-1)
+    cc = (f**2).sum(-1) - r * r
+    disc = bb * bb - 4.0 * aa * cc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = (-bb - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * aa)
+    hit = (cc <= 0) | ((disc >= 0) & (aa > 0) & (u >= 0) & (u <= 1))
+    u = np.where(cc <= 0, 0.0, u)
+    exact = np.where(hit, prefix[None, :] + u * leg[None, :], np.inf)
+    loose = prefix[None, :] + np.maximum(0.0, np.sqrt(np.maximum(cc + r * r, 0.0)) - r)
+    per_leg = np.where(straight[None, :], exact, loose)
+    # the end of the route: the scout stops at its last waypoint
+    last = np.hypot(x[:, 0] - a[-1, 0], x[:, 1] - a[-1, 1])
+    at_end = np.where(last <= r, prefix[-1] + leg[-1], np.inf)
+    return np.asarray(np.minimum(per_leg.min(axis=1), at_end))
+
+
+def _segment_clear(w: BoundWorld, p: np.ndarray, q: np.ndarray) -> bool:
+    """Clear of every crater inflated by the planner's clearance, with a safety margin."""
+    return all(_seg_point(p, q, cx, cy) > cr + w.clearance for cx, cy, cr in w.craters)
+
+
+def _disc_clear(w: BoundWorld, rho: float) -> bool:
+    px, py = w.plant
+    return all(math.hypot(cx - px, cy - py) - cr - w.clearance > rho for cx, cy, cr in w.craters)
+
+
+def _seg_point(p: np.ndarray, q: np.ndarray, cx: float, cy: float) -> float:
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    seg2 = dx * dx + dy * dy
+    u = 0.0 if seg2 == 0 else min(1.0, max(0.0, ((cx - p[0]) * dx + (cy - p[1]) * dy) / seg2))
+    return math.hypot(p[0] + u * dx - cx, p[1] + u * dy - cy)
+
+
+def mst_length(points: Sequence[Point]) -> float:
+    """Euclidean minimum spanning tree (Prim, O(n²)): fine for thousands of sites."""
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    n = len(p)
+    if n < 2:
+        return 0.0
+    inside = np.zeros(n, dtype=bool)
+    dist = np.hypot(p[:, 0] - p[0, 0], p[:, 1] - p[0, 1])
+    inside[0] = True
+    total = 0.0
+    for _ in range(n - 1):
+        cand = np.where(inside, np.inf, dist)
+        k = int(np.argmin(cand))
+        total += float(cand[k])
+        inside[k] = True
+        dist = np.minimum(dist, np.hypot(p[:, 0] - p[k, 0], p[:, 1] - p[k, 1]))
+    return total
+
+
+def _release_bound(
+    release: np.ndarray, work: np.ndarray, machines: int, tail: np.ndarray, credit: np.ndarray
+) -> float:
+    """max over τ of τ + (Σ work of jobs released ≥ τ − the `machines` largest credits)/machines
+    + the smallest tail among them: identical machines, one job at a time, release dates."""
+    order = np.argsort(release, kind="stable")
+    best = 0.0
+    for i in range(len(order)):
+        tau = float(release[order[i]])
+        if i and release[order[i - 1]] == tau:
+            continue
+        rest = order[i:]
+        cut = np.sort(credit[rest])[::-1][:machines].sum()
+        value = tau + (work[rest].sum() - cut) / machines + float(tail[rest].min())
+        best = max(best, value)
+    return best
+
+
+def lower_bound(w: BoundWorld) -> Bound:
+    """The largest of the search, chain, haulage and digging bounds (each a valid bound)."""
+    px, py = w.plant
+    found = found_bounds(w)
+    d = np.asarray([math.hypot(x - px, y - py) for x, y, _ in w.sites])
+    m = np.asarray([n for _, _, n in w.sites], dtype=int)
+    sigma, r = w.start_spread, w.scan_radius
+    dt = w.dig_s + w.transfer_s
+    # an excavator digs a site only once it is found and reached (it starts within σ)
+    arrive = np.maximum(found, np.maximum(0.0, d - sigma) / w.v_excavator)
+    back = d / w.v_hauler + w.unload_s  # last pickup → plant → unloaded
+    terms: dict[str, float] = {
+        "search_spiral": float(found.max()),
+        "search_cover": max(
+            0.0,
+            (mst_length([w.plant, *[(x, y) for x, y, _ in w.sites]]) - w.scouts * sigma
+             - (2 * len(w.sites) - 1) * r) / (w.scouts * w.v_scout),
+        ),
+        "chain": float((arrive + m * dt + back).max()),
+    }  # fmt: skip
+    # one job per mineral: the k-th of a site is dug after k digs and k−1 transfers there
+    site = np.repeat(np.arange(len(m)), m)
+    k = np.concatenate([np.arange(n) for n in m]) if len(m) else np.zeros(0, int)
+    pickup = arrive[site] + (k + 1) * w.dig_s + k * w.transfer_s
+    trip = 2 * d[site] / w.v_hauler + w.transfer_s + w.unload_s
+    total_trip = float(trip.sum())
+    terms["haul_work"] = (total_trip - w.haulers * sigma / w.v_hauler) / w.haulers
+    # after τ, each hauler's first trip may start anywhere: credit its outbound leg
+    zero = np.zeros(len(site))
+    terms["haul_release"] = _release_bound(pickup, trip, w.haulers, zero, d[site] / w.v_hauler)
+    dig_start = arrive[site] + k * dt
+    terms["dig_release"] = _release_bound(
+        dig_start, np.full(len(site), dt), w.excavators, back[site], zero
+    )
+    terms = {k: float(v) for k, v in terms.items()}
+    return Bound(max(terms.values()), terms, tuple(float(f) for f in found))
+
+
+def bound_world(scenario: Any, seed: int) -> BoundWorld:
+    """The world a run of (scenario, seed) plays in, as the engine generates it.
+
+    Builds the mission with the straight-line planner (the world and the scout routes do
+    not depend on the planner) and reads its world and spiral routes.
+    """
+    from engine import Mission
+    from engine.world import CLEARANCE
+
+    mission = Mission(scenario, seed, planner="straight")
+    try:
+        world = mission.world
+        wps = world.grid.waypoints
+        routes: tuple[tuple[Point, ...], ...] = tuple(
+            tuple((float(wps[c][0]), float(wps[c][1])) for c in cells)  # type: ignore[index]
+            for _, cells in sorted(mission.routes.items())
+        )
+    finally:
+        mission.close()
+    s = scenario
+    return BoundWorld(
+        plant=world.plant,
+        sites=tuple((site.x, site.y, site.minerals) for site in world.sites),
+        scout_routes=routes,
+        start_spread=s.start_spread,
+        craters=tuple((c.x, c.y, c.r) for c in world.craters),
+        clearance=CLEARANCE + 0.01,
+        scan_radius=s.scan_radius,
+        scouts=s.team.scouts,
+        excavators=s.team.excavators,
+        haulers=s.team.haulers,
+        v_scout=s.speeds.scout,
+        v_excavator=s.speeds.excavator,
+        v_hauler=s.speeds.hauler,
+        dig_s=s.timing.dig_s,
+        transfer_s=s.timing.transfer_s,
+        unload_s=s.timing.unload_s,
+    )
+
+
+BoundFn = Callable[[Any, int], Bound]
+
+
+def engine_bound(scenario: Any, seed: int) -> Bound:
+    """The bound of the world the engine generates for (scenario, seed)."""
+    return lower_bound(bound_world(scenario, seed))
+
+
+def bound_columns(
+    rows: list[dict[str, Any]], scenario: Any, bound_fn: BoundFn
+) -> list[dict[str, Any]]:
+    """Add lower_bound_s, its binding term and makespan_ratio to each run; per-seed terms."""
+    per_seed: dict[int, Bound] = {}
+    for row in rows:
+        seed = int(row["seed"])
+        if seed not in per_seed:
+            per_seed[seed] = bound_fn(scenario, seed)
+        b = per_seed[seed]
+        row["lower_bound_s"] = b.value
+        row["lower_bound_term"] = max(b.terms, key=lambda k: b.terms[k])
+        mk = row.get("makespan_s")
+        ok = isinstance(mk, (int, float)) and row.get("status", "completed") == "completed"
+        row["makespan_ratio"] = float(mk) / b.value if ok and b.value > 0 else None  # type: ignore[arg-type]
+    return [
+        {"seed": seed, "lower_bound_s": b.value, **{f"{k}_s": v for k, v in b.terms.items()}}
+        for seed, b in sorted(per_seed.items())
+    ]
