@@ -39,6 +39,7 @@ class Viewer:
         self.queue: deque[str] = deque()
         self.frame: str | None = None
         self.overflowed = False
+        self.gone = asyncio.Event()  # set when the viewer fell too far behind
         self.frames_sent = 0
         self.frames_dropped = 0
         self._wake = asyncio.Event()
@@ -50,6 +51,7 @@ class Viewer:
         if len(self.queue) >= self.max_queue:
             self.overflowed = True
             self.queue.clear()
+            self.gone.set()
         else:
             self.queue.append(text)
         self._wake.set()
@@ -140,19 +142,21 @@ async def serve_viewer(ws: WebSocket, hub: Hub, viewer: Viewer, max_message: int
     """Run one viewer until it leaves, misbehaves or falls behind; always unregister it."""
     pump = asyncio.create_task(viewer.pump())
     reader = asyncio.create_task(_read_until_closed(ws, max_message))
+    gone = asyncio.create_task(viewer.gone.wait())
+    tasks = (pump, reader, gone)
     code: int | None = None
     try:
-        done, _ = await asyncio.wait({pump, reader}, return_when=asyncio.FIRST_COMPLETED)
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         if reader in done and not reader.cancelled() and reader.exception() is None:
             code = reader.result()
-        elif pump in done and not pump.cancelled() and pump.exception() is None:
+        elif gone in done or (pump in done and not pump.cancelled() and not pump.exception()):
             code = CLOSE_TOO_SLOW
             log.info("dropped a websocket viewer that fell %d messages behind", hub.max_queue)
     finally:
         hub.leave(viewer)
-        for task in (pump, reader):
+        for task in tasks:
             task.cancel()
-        for task in (pump, reader):
+        for task in tasks:
             with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, Exception):
                 await task
     if code is not None:

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import base64
+import contextlib
+import os
+import socket
+import time
 from typing import Any
 
 import httpx
@@ -184,3 +189,41 @@ def test_policy_change_mid_mission_is_recorded(server: LiveServer, api: httpx.Cl
     assert {a["policy"] for a in auctions if a["opened_at"] < change[0]["t"]} == {"fcfs"}
     listed = api.get("/api/missions", params={"policy": "nearest"}).json()
     assert [m["id"] for m in listed["items"]] == [mid]
+
+
+def _stalled_viewer(port: int, mission_id: int) -> socket.socket:
+    """A raw WebSocket client that completes the handshake and then never reads again."""
+    sock = socket.create_connection(("127.0.0.1", port))
+    key = base64.b64encode(os.urandom(16)).decode()
+    sock.sendall(
+        (
+            f"GET /api/missions/{mission_id}/live HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+            "Upgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+        ).encode()
+    )
+    assert b" 101 " in sock.recv(1024)
+    return sock
+
+
+def test_a_stalled_viewer_never_slows_the_mission_or_other_viewers(
+    server: LiveServer, api: httpx.Client
+) -> None:
+    speed = 1000
+    mid = _create(api, seed=8, speed=speed)
+    stalled = _stalled_viewer(server.port, mid)
+    with contextlib.ExitStack() as stack:
+        readers = [stack.enter_context(server.ws(mid)) for _ in range(3)]
+        for ws in readers:
+            assert recv(ws)["type"] == "snapshot"
+        t0 = time.monotonic()
+        api.post(f"/api/missions/{mid}/resume").raise_for_status()
+        streams: list[list[Msg]] = [[] for _ in readers]
+        for ws, seen in zip(readers, streams, strict=True):
+            recv_until(ws, _ended, seen)
+        wall = time.monotonic() - t0
+    stalled.close()
+    makespan = api.get(f"/api/missions/{mid}").json()["metrics"]["makespan_s"]
+    assert wall < 1.5 * makespan / speed + 1.0  # paced at the asked speed, stall or not
+    events = [[m["event"]["seq"] for m in _of(seen, "event")] for seen in streams]
+    assert events[0] == events[1] == events[2] and len(events[0]) > 100

@@ -1,0 +1,102 @@
+"""Fan-out rules without a network: order kept, stale frames replaced, laggards dropped."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from typing import Any
+
+from app.live import CLOSE_BAD_DATA, CLOSE_TOO_BIG, CLOSE_TOO_SLOW, Hub, serve_viewer
+
+
+class FakeSocket:
+    """A client: `stalled` never lets a send finish; `inbox` is what it sends us."""
+
+    def __init__(self, stalled: bool = False, inbox: list[dict[str, Any]] | None = None) -> None:
+        self.stalled = stalled
+        self.sent: list[dict[str, Any]] = []
+        self.inbox = list(inbox or [])
+        self.closed: int | None = None
+        self._never = asyncio.Event()
+
+    async def send_text(self, text: str) -> None:
+        if self.stalled:
+            await self._never.wait()
+        self.sent.append(json.loads(text))
+
+    async def receive(self) -> dict[str, Any]:
+        if self.inbox:
+            return self.inbox.pop(0)
+        await self._never.wait()
+        raise AssertionError
+
+    async def close(self, code: int = 1000) -> None:
+        self.closed = code
+
+
+def _run(coro: Any) -> Any:
+    return asyncio.run(asyncio.wait_for(coro, timeout=5))
+
+
+def test_ordered_messages_keep_order_and_only_the_newest_frame_is_sent() -> None:
+    async def scenario() -> FakeSocket:
+        hub = Hub(max_queue=100)
+        ws = FakeSocket()
+        viewer = hub.join(ws, json.dumps({"type": "snapshot"}))  # type: ignore[arg-type]
+        for i in range(3):
+            hub.publish_frame({"t": i})
+            hub.publish({"type": "event", "n": i})
+        task = asyncio.create_task(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
+        await asyncio.sleep(0.05)
+        hub.publish_frame({"t": 9}, last=True)
+        await asyncio.sleep(0.05)
+        task.cancel()
+        return ws
+
+    ws = _run(scenario())
+    kinds = [(m["type"], m.get("n", m.get("t"))) for m in ws.sent]
+    assert kinds == [
+        ("snapshot", None),
+        ("event", 0),
+        ("event", 1),
+        ("event", 2),
+        ("frame", 2),  # frames 0 and 1 were stale: replaced, never queued
+        ("frame", 9),
+    ]
+    assert all("wall" in m for m in ws.sent if m["type"] == "frame")
+
+
+def test_a_viewer_that_stops_reading_is_dropped_and_others_are_not_slowed() -> None:
+    async def scenario() -> tuple[FakeSocket, FakeSocket, Hub]:
+        hub = Hub(max_queue=50)
+        stuck, fine = FakeSocket(stalled=True), FakeSocket()
+        tasks = []
+        for ws in (stuck, fine):
+            viewer = hub.join(ws, "{}")  # type: ignore[arg-type]
+            tasks.append(asyncio.create_task(serve_viewer(ws, hub, viewer, 4096)))  # type: ignore[arg-type]
+        for i in range(200):
+            hub.publish({"type": "event", "n": i})
+            await asyncio.sleep(0)
+        await asyncio.wait_for(tasks[0], timeout=2)  # the stuck one is gone
+        await asyncio.sleep(0.05)
+        tasks[1].cancel()
+        return stuck, fine, hub
+
+    stuck, fine, hub = _run(scenario())
+    assert stuck.closed == CLOSE_TOO_SLOW
+    assert len(hub) == 0
+    assert [m.get("n") for m in fine.sent[1:]] == list(range(200))
+
+
+def test_bad_client_input_closes_that_socket_with_a_proper_code() -> None:
+    cases = [
+        ({"type": "websocket.receive", "text": "not json"}, CLOSE_BAD_DATA),
+        ({"type": "websocket.receive", "bytes": b"\x00"}, CLOSE_BAD_DATA),
+        ({"type": "websocket.receive", "text": json.dumps({"x": "y" * 5000})}, CLOSE_TOO_BIG),
+    ]
+    for message, code in cases:
+        ws = FakeSocket(inbox=[{"type": "websocket.receive", "text": "{}"}, message])
+        hub = Hub(max_queue=10)
+        viewer = hub.join(ws, "{}")  # type: ignore[arg-type]
+        _run(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
+        assert ws.closed == code and len(hub) == 0
