@@ -316,6 +316,22 @@ export class LiveView {
     this.charts.onDetail(list);
   }
 
+  /**
+   * The robot list was read after the latest frame, so its poses and states are at least as
+   * new: apply them when frames have stopped (paused), so a robot the operator failed shows
+   * as failed at once.
+   */
+  _poseFromDetail(list) {
+    const s = this.state;
+    // while frames flow they are fresher, and extra poses would upset the glide timing
+    if (!list.length || !s.map || performance.now() - this.map.lastFrameWall < 500) return;
+    for (const r of list) s.robots.set(r.name, pick(r, FRAME_FIELDS));
+    const robots = [...s.robots.values()];
+    this.map.setRobots(robots, { polled: true });
+    $("#map").dataset.robotCount = String(robots.length);
+    this.table.update(robots.map((r) => ({ ...(s.detail.get(r.name) || {}), ...r })));
+  }
+
   async _refreshDetail() {
     const id = this.id;
     if (!id || document.hidden) return;
@@ -324,6 +340,7 @@ export class LiveView {
       if (id !== this.id) return;
       const list = Array.isArray(data) ? data : data.items || data.robots || [];
       this._setDetail(list);
+      this._poseFromDetail(list);
       if (this.finished) {
         clearInterval(this.poll);
         this.poll = null;

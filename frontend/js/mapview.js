@@ -54,13 +54,16 @@ export class MapView {
   }
 
   /** A new frame of robot poses: start gliding from where each robot is drawn now. */
-  setRobots(robots, { snap = false } = {}) {
+  setRobots(robots, { snap = false, polled = false } = {}) {
     const now = performance.now();
-    if (this.lastFrameWall) {
-      const gap = now - this.lastFrameWall;
-      this.frameGap = Math.min(400, Math.max(40, this.frameGap * 0.7 + gap * 0.3));
+    if (!polled) {
+      // frames set the glide duration: a smoothed measure of the interval between them
+      if (this.lastFrameWall) {
+        const gap = now - this.lastFrameWall;
+        this.frameGap = Math.min(400, Math.max(40, this.frameGap * 0.7 + gap * 0.3));
+      }
+      this.lastFrameWall = now;
     }
-    this.lastFrameWall = now;
     const seen = new Set();
     for (const r of robots) {
       seen.add(r.name);

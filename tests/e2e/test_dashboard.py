@@ -91,24 +91,25 @@ def test_fail_robot_shows_failed_and_reauctions_its_task(
     page = operator
     mission = start_mission(seed=5, speed=40)
     open_live(page, mission["id"])
-    # wait until an excavator holds an excavation task (it won a scout's auction)
+    # wait until an excavator holds an excavation task (it won a scout's auction), then pause
     busy = page.locator('#robot-table tr[data-type="excavator"]').filter(
         has=page.locator("td.task", has_text=re.compile(r"\S"))
     )
     expect(busy.first).to_be_visible(timeout=60_000)
-    row = busy.first
-    name = row.get_attribute("data-robot")
-    robots = {r["name"]: r for r in api.get(f"/missions/{mission['id']}/robots").json()}
-    task = robots[name]["task"]  # e.g. "excavate@(59.9,35.8)"
-    found = re.search(r"\(([-\d.]+),([-\d.]+)\)", task or "")
+    page.locator('[data-speed="0"]').click()
+    expect(page.locator("#live-status")).to_have_attribute("data-status", "paused")
+    robots = api.get(f"/missions/{mission['id']}/robots").json()
+    holder = next(r for r in robots if r["type"] == "excavator" and r["task"] and r["alive"])
+    name, task = holder["name"], holder["task"]  # e.g. "excavate@(59.9,35.8)"
+    found = re.search(r"\(([-\d.]+),([-\d.]+)\)", task)
     assert found, f"{name} has no task with a location: {task!r}"
     site = (float(found[1]), float(found[2]))
     cards = page.locator("#auction-feed li")
     before = set(cards.evaluate_all("els => els.map(e => e.dataset.auctionId)"))
+    row = page.locator(f'#robot-table tr[data-robot="{name}"]')
     row.get_by_role("button", name=re.compile("^Fail")).click()
-    expect(page.locator(f'#robot-table tr[data-robot="{name}"]')).to_have_attribute(
-        "data-state", "failed", timeout=10_000
-    )
+    expect(row).to_have_attribute("data-state", "failed", timeout=10_000)
+    page.locator('[data-speed="100"]').click()  # resume, fast: detection takes 30 s of sim time
     # the failure is noticed (missed heartbeats) and its task is auctioned again
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
