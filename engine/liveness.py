@@ -45,6 +45,11 @@ class Liveness:
         self._hb_serial[name] = -1
         return i
 
+    def introduce_all(self, t: float) -> None:
+        """The team that starts together has 'heard' each other at the start (the roster)."""
+        n = len(self.names)
+        self.heard[:n, :n] = t
+
     def record_heartbeat(self, hb: Heartbeat) -> int:
         """Store a sent heartbeat; returns its serial for delivery."""
         n = self._hb_serial[hb.sender] + 1

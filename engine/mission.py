@@ -62,7 +62,7 @@ class Mission:
         )
         ctx.bus = EmbeddedBus(self.env, scenario.bus, bus_rng, ctx.record_message, ctx.liveness)
         self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
-        self._counts = {t: 0 for t in ROBOT_TYPES}
+        self._counts: dict[str, int] = {t: 0 for t in ROBOT_TYPES}
         team = scenario.team
         n_total = team.scouts + team.excavators + team.haulers
         starts = iter(self._start_positions(n_total))
@@ -79,6 +79,7 @@ class Mission:
         ):
             for _ in range(n):
                 robots.append(self._make_robot(rtype, next(starts)))
+        ctx.liveness.introduce_all(0.0)
         for r in robots:
             r.start()
         self.actions: list[dict[str, Any]] = []

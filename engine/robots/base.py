@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
@@ -83,6 +83,7 @@ class Robot:
         self.queue: deque[Assignment] = deque()
         self._procs: list[Any] = []
         self._wake_event: simpy.Event | None = None
+        self._wake_pending = False
         self._reset_knowledge()
         ctx.liveness.add(name)
         ctx.bus.subscribe(name, self.on_message)
@@ -135,13 +136,20 @@ class Robot:
         return self.alive and self.enabled and not self.leaving
 
     def wake(self) -> None:
+        """Nudge the behaviour to look at its situation again (a wake is never lost)."""
         ev = self._wake_event
         if ev is not None and not ev.triggered:
             ev.succeed()
+        else:
+            self._wake_pending = True
 
     def wait_for_wake(self) -> simpy.Event:
-        self._wake_event = self.env.event()
-        return self._wake_event
+        ev = self.env.event()
+        if self._wake_pending:
+            self._wake_pending = False
+            ev.succeed()
+        self._wake_event = ev
+        return ev
 
     # --- motion -------------------------------------------------------------------------
     def position(self, t: float | None = None) -> tuple[Point, float]:
@@ -437,7 +445,7 @@ class Robot:
         )
         self.wake()
 
-    def finish(self, a: Assignment, outcome: str = "done") -> None:
+    def finish(self, a: Assignment, outcome: Literal["done", "void", "released"] = "done") -> None:
         self.current = None
         self.done_ids.append(a.task_id)
         self.ctx.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
@@ -566,6 +574,13 @@ class Robot:
         if hb is not None and hb.load > 0 and alloc.task_id in hb.tasks:
             # it was carrying the mineral: search along its route from where it was last heard
             location, search = (hb.x, hb.y), hb.path
+        elif alloc.task_type == "transport" and not search:
+            # the mineral may have left the bucket before the hauler fell silent: look at the
+            # pick-up point first, then along the road from there to the plant
+            try:
+                search = self.ctx.planner.plan(location, self.ctx.world.plant)
+            except PlanningError:
+                search = ()
         self.house.open(
             alloc.task_type,
             location,
@@ -585,8 +600,9 @@ class Robot:
         self.alive = False
         self.enabled = False
         self.state = "failed"
+        me = self.env.active_process  # a graceful exit runs inside the robot's own process
         for p in self._procs:
-            if p.is_alive:
+            if p.is_alive and p is not me:
                 p.interrupt("failed")
         self._procs.clear()
         self.house.stop()

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import simpy
 
+from engine.auction import Allocation
+from engine.context import NEAR
+from engine.geometry import Point, dist
 from engine.messages import Close
 from engine.policies import coalition_partner
 from engine.robots.base import Assignment, Robot
@@ -26,6 +29,7 @@ class Excavator(Robot):
         self.waiting_for: str | None = None  # transport task id of the mineral in my bucket
         self._arrival: simpy.Event | None = None
         self.partner_here: Hauler | None = None
+        self._ground_serial = 0
 
     def load(self) -> int:
         return self.bucket
@@ -47,6 +51,7 @@ class Excavator(Robot):
         self.state = "travelling"
         yield from self.go_to(a.location)
         site = self.ctx.site_at(a.location)
+        self.auction_ground_minerals()
         if site is None or site.remaining == 0 or site.worker not in (None, self.name):
             self.finish(a, "void")  # nothing here, or another excavator is already digging
             return
@@ -66,41 +71,75 @@ class Excavator(Robot):
         self.finish(a, "done" if site.remaining == 0 else "released")
 
     def hand_over(self, site: SiteState) -> Any:
-        """Empty the bucket into a hauler's bin: the waiting partner's, or an auction winner's."""
-        partner = self.partner_here
-        if self.ctx.policy.coalitions() and partner is not None and partner.ready_for(self):
-            yield from self.transfer(partner)
-            return
+        """Empty the bucket into a hauler's bin: the waiting partner's, or an auction winner's.
+
+        Looked at again whenever something changes (a hauler arrives, a heartbeat passes):
+        a partner standing by takes the mineral unless an auction winner is already on its way.
+        """
         task_id = f"{self.name}#m{self.minerals_dug}"
-        rec = self.house.open("transport", (site.x, site.y), task_id, kind="excavator_hauler")
         self.waiting_for = task_id
         while self.bucket:
-            self._arrival = self.env.event()
+            on_its_way = task_id in self.house.allocations
+            partner = self.partner_here
+            if (
+                not on_its_way
+                and self.ctx.policy.coalitions()
+                and partner is not None
+                and partner.ready_for(self)
+            ):
+                self._cancel_transport(task_id)
+                yield from self.transfer(partner, site)
+                continue
+            if not on_its_way and not self._transport_open(task_id):
+                self.house.open("transport", (site.x, site.y), task_id, kind="excavator_hauler")
+            self._arrival = arrival = self.env.event()
             self.state = "waiting"
-            hauler: Hauler = yield self._arrival
+            yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             self._arrival = None
-            if rec.id in self.house.open_auctions:
-                self.house.cancel(rec.id)  # the partner came back before anyone won it
-            yield from self.transfer(hauler)
+            if arrival.triggered:
+                hauler = cast("Hauler", arrival.value)
+                self._cancel_transport(task_id)
+                yield from self.transfer(hauler, site)
         self.waiting_for = None
 
-    def transfer(self, hauler: Hauler) -> Any:
+    def _transport_open(self, task_id: str) -> bool:
+        return any(r.task_id == task_id for r in self.house.open_auctions.values())
+
+    def _cancel_transport(self, task_id: str) -> None:
+        for rec in list(self.house.open_auctions.values()):
+            if rec.task_id == task_id:
+                self.house.cancel(rec.id)  # the partner came back before anyone won it
+
+    def transfer(self, hauler: Hauler, site: SiteState) -> Any:
         self.state = "loading"
         yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
         if not hauler.alive:
             return  # it failed while we worked; the mineral is still in the bucket
+        task_id = self.waiting_for
+        assert task_id is not None
         self.bucket = 0
-        hauler.receive(self)
+        if task_id not in self.house.allocations:
+            # a coalition hand-over, outside any auction: watch its delivery all the same
+            self.house.allocations[task_id] = Allocation(
+                f"{self.name}/coalition",
+                task_id,
+                "transport",
+                (site.x, site.y),
+                hauler.name,
+                float(self.env.now),
+            )
+        hauler.receive(self, task_id)
         self.ctx.emit(
             "pickup", robot=hauler.name, from_robot=self.name, x=self.pos[0], y=self.pos[1]
         )
 
     # --- physical rendezvous with haulers (they stand beside me) --------------------------
     def hauler_arrived(self, hauler: Hauler, task_id: str) -> bool:
-        if self.alive and self.bucket and self.waiting_for == task_id and self._arrival is not None:
-            if not self._arrival.triggered:
-                self._arrival.succeed(hauler)
-                return True
+        arrival = self._arrival
+        ready = self.alive and self.bucket and self.waiting_for == task_id
+        if ready and arrival is not None and not arrival.triggered:
+            arrival.succeed(hauler)
+            return True
         return False
 
     def partner_arrived(self, hauler: Hauler) -> None:
@@ -115,6 +154,27 @@ class Excavator(Robot):
 
     def in_coalition(self) -> bool:
         return False  # excavators bid as Policy 1 under Policy 2
+
+    def auction_ground_minerals(self) -> None:
+        """Minerals lying where I stand (a failed robot's) get a transport, unless one is known."""
+        here = self.pos
+        for g in list(self.ctx.ground):
+            if dist((g.x, g.y), here) > NEAR or self._transport_known_at((g.x, g.y)):
+                continue
+            self._ground_serial += 1
+            self.house.open(
+                "transport",
+                (g.x, g.y),
+                f"{self.name}#g{self._ground_serial}",
+                kind="excavator_hauler",
+            )
+
+    def _transport_known_at(self, p: Point) -> bool:
+        mine = [(r.task_type, r.location) for r in self.house.open_auctions.values()]
+        mine += [(a.task_type, a.location) for a in self.house.allocations.values()]
+        theirs = [(a.task_type, a.location) for d in self.peer_open.values() for a in d.values()]
+        theirs += [(a.task_type, a.location) for d in self.peer_alloc.values() for a in d.values()]
+        return any(t == "transport" and dist(loc, p) <= NEAR for t, loc in mine + theirs)
 
     def on_close_heard(self, msg: Close) -> None:
         pass

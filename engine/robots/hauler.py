@@ -51,13 +51,13 @@ class Hauler(Robot):
     def transport(self, a: Assignment) -> Any:
         self.state = "travelling"
         yield from self.go_to(a.location)
-        if a.search_path:
-            yield from self.search_along(a.search_path)
-        else:
-            exc = self._excavator_here(lambda e: e.waiting_for == a.task_id)
-            if exc is not None and exc.hauler_arrived(self, a.task_id):
-                yield from self.wait_loaded()
+        exc = self._excavator_here(lambda e: e.waiting_for == a.task_id)
+        if exc is not None and exc.hauler_arrived(self, a.task_id):
+            yield from self.wait_loaded()
         if not self.bin:
+            yield from self.pick_from_ground(self.pos)
+        if not self.bin and a.search_path:
+            yield from self.search_along(a.search_path)
             yield from self.pick_from_ground(self.pos)
         if not self.bin:
             self.finish(a, "void")
@@ -73,8 +73,13 @@ class Hauler(Robot):
         yield self._loaded | self.env.timeout(limit)
         self._loaded = None
 
-    def receive(self, exc: Excavator) -> None:
+    def receive(self, exc: Excavator, task_id: str) -> None:
+        """The excavator empties its bucket into my bin; a coalition hand-over is my task now."""
         self.bin = 1
+        if self.current is None:
+            self.current = Assignment(
+                f"{exc.name}/coalition", exc.name, "transport", task_id, exc.pos
+            )
         if self._loaded is not None and not self._loaded.triggered:
             self._loaded.succeed()
 
@@ -98,8 +103,8 @@ class Hauler(Robot):
         self.state = "loading"
         yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
         if g in self.ctx.ground:
-            self.ctx.pick_ground(g, self.name)
             self.bin = 1
+            self.ctx.pick_ground(g, self.name)
 
     def deliver(self) -> Any:
         self.state = "carrying"
@@ -122,6 +127,8 @@ class Hauler(Robot):
         self.state = "travelling"
         yield from self.go_to(site)
         partner = coalition_partner(self.name)
+        if self.queue or not self.in_coalition():
+            return  # won a task or was released while driving: back to the main loop
         exc = self._excavator_here(lambda e: e.name == partner)
         if exc is None:
             # not there (yet, or any more): wait for news rather than spin
@@ -138,6 +145,12 @@ class Hauler(Robot):
         if self.bin:
             yield from self.deliver()
             self.ctx.emit("coalition_delivery", robot=self.name, excavator=exc.name)
+            if self.current is not None:
+                self.finish(self.current)
+
+    def in_coalition(self) -> bool:
+        """Paired, and the partner has a site: while it has none, carry for anyone."""
+        return super().in_coalition() and self.partner_site is not None
 
     def ready_for(self, exc: Excavator) -> bool:
         """Standing by this excavator with an empty bin, waiting for its bucket?"""
@@ -158,6 +171,7 @@ class Hauler(Robot):
         if msg.sender == coalition_partner(self.name) and msg.task_id.startswith("excavate@"):
             self.partner_site = None
             self.wake()
+            self.consider_bids()
 
     def drop_loads(self) -> None:
         if self.bin:

@@ -1,0 +1,47 @@
+"""Small scenarios and missions for engine tests."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from engine import Mission, Scenario, parse_scenario
+
+
+def small_scenario(**overrides: Any) -> Scenario:
+    """A 40×40 world with a small team: fast, but every mechanism is exercised."""
+    data: dict[str, Any] = {
+        "name": "small",
+        "width": 40.0,
+        "height": 40.0,
+        "sites": 3,
+        "minerals": 8,
+        "team": {"scouts": 1, "excavators": 2, "haulers": 2},
+        "random_craters": 1,
+        "crater_radius": (1.5, 3.0),
+        "max_time_s": 20000.0,
+    }
+    for key, value in overrides.items():
+        if isinstance(value, dict) and isinstance(data.get(key), dict):
+            data[key] = {**data[key], **value}
+        else:
+            data[key] = value
+    return parse_scenario(data)
+
+
+def quiet_scenario(**overrides: Any) -> Scenario:
+    """No craters, a lone scout that takes long to find anything: the stage for hand-built
+    auctions injected by the operator at t=0."""
+    base: dict[str, Any] = {
+        "width": 100.0,
+        "height": 100.0,
+        "sites": 1,
+        "minerals": 1,
+        "random_craters": 0,
+        "team": {"scouts": 1, "excavators": 1, "haulers": 1},
+    }
+    base.update(overrides)
+    return small_scenario(**base)
+
+
+def events_of(m: Mission, kind: str) -> list[dict[str, Any]]:
+    return [dict(e.data, t=e.t) for e in m.events if e.kind == kind]

@@ -1,0 +1,67 @@
+"""The protocol's pure decisions (SPEC §5–6) on hand-made inputs."""
+
+import math
+
+from engine.auction import rank_bids, select_winner
+from engine.policies import (
+    AnticipatoryCoalitions,
+    FirstComeFirstServed,
+    NearestFirst,
+    OpenAuction,
+    PendingAward,
+    coalition_partner,
+    resolve_policy,
+)
+
+
+def auction(aid: str, opened: float, task: str = "transport") -> OpenAuction:
+    return OpenAuction(aid, "excavator-1", task, (1.0, 2.0), f"t-{aid}", opened, 0)  # type: ignore[arg-type]
+
+
+def test_highest_utility_wins_and_minus_inf_never_does():
+    assert select_winner({"a": -10.0, "b": -3.0, "c": -math.inf}) == "b"
+    assert select_winner({"a": -math.inf, "b": -math.inf}) is None
+    assert rank_bids({"a": -10.0, "b": -3.0, "c": -math.inf}) == ["b", "a"]
+
+
+def test_declined_bidders_are_skipped_and_ties_break_by_name():
+    assert select_winner({"a": -3.0, "b": -3.0}) == "a"
+    assert select_winner({"a": -3.0, "b": -3.0}, excluded={"a"}) == "b"
+    assert select_winner({"a": -3.0}, excluded={"a"}) is None
+
+
+def test_policy_1_bids_only_in_the_auction_that_opened_first():
+    later, first = auction("x/2", 5.0), auction("y/1", 2.0)
+    assert FirstComeFirstServed().bid_targets("hauler", False, [later, first]) == [first]
+
+
+def test_policy_3_bids_everywhere_and_keeps_the_nearest_award():
+    a, b = auction("x/1", 1.0), auction("x/2", 2.0)
+    p = NearestFirst()
+    assert set(p.bid_targets("hauler", False, [a, b])) == {a, b}
+    assert p.collects_awards()
+    best = p.choose_award([PendingAward(a, -20.0), PendingAward(b, -5.0)])
+    assert best.auction is b
+
+
+def test_policy_2_paired_haulers_never_bid_others_bid_as_policy_1():
+    a, b = auction("x/1", 1.0), auction("x/2", 2.0)
+    p = AnticipatoryCoalitions()
+    assert p.bid_targets("hauler", True, [a, b]) == []
+    assert p.bid_targets("hauler", False, [b, a]) == [a]
+    assert p.bid_targets("excavator", False, [b, a]) == [a]
+    assert coalition_partner("excavator-3") == "hauler-3"
+    assert coalition_partner("hauler-3") == "excavator-3"
+    assert coalition_partner("scout-1") is None
+
+
+def test_policy_names_resolve_from_numbers_and_names():
+    assert resolve_policy("2") == "coalition"
+    assert resolve_policy(3) == "nearest"
+    assert resolve_policy("FCFS") == "fcfs"
+    try:
+        resolve_policy("7")
+    except ValueError as exc:
+        assert "policy" in str(exc)
+    else:  # pragma: no cover
+        raise AssertionError("unknown policy accepted")

@@ -1,0 +1,75 @@
+"""Property tests of the protocol invariants over random seeds, scenarios and failures."""
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from engine import Mission
+from tests.engine.factories import small_scenario
+from tests.engine.invariants import InvariantWatch
+
+POLICIES = st.sampled_from(["fcfs", "coalition", "nearest"])
+
+
+@st.composite
+def scenarios(draw):
+    sites = draw(st.integers(1, 4))
+    return small_scenario(
+        width=draw(st.floats(25, 50)),
+        height=draw(st.floats(25, 50)),
+        sites=sites,
+        minerals=draw(st.integers(sites, 12)),
+        team={
+            "scouts": draw(st.integers(1, 2)),
+            "excavators": draw(st.integers(1, 3)),
+            "haulers": draw(st.integers(1, 3)),
+        },
+        random_craters=draw(st.integers(0, 2)),
+    )
+
+
+@given(seed=st.integers(0, 10_000), scenario=scenarios(), policy=POLICIES)
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_invariants_hold_at_every_event(seed, scenario, policy):
+    m = Mission(scenario, seed, policy)
+    watch = InvariantWatch(m)
+    m.run()
+    watch.final()
+    assert m.status == "completed"
+    assert m.ctx.delivered == m.ctx.minerals_total
+    assert m.ctx.sites_found == len(m.ctx.sites)
+
+
+@st.composite
+def failure_plans(draw):
+    """One to three robots fail abruptly at random times; one of each type survives."""
+    team = {"scouts": 2, "excavators": 2, "haulers": 3}
+    names = (
+        [f"scout-{i}" for i in (1, 2)]
+        + [f"excavator-{i}" for i in (1, 2)]
+        + [f"hauler-{i}" for i in (1, 2, 3)]
+    )
+    chosen = draw(st.lists(st.sampled_from(names), min_size=1, max_size=3, unique=True))
+    for rtype in ("scout", "excavator", "hauler"):
+        alive = [n for n in names if n.startswith(rtype) and n not in chosen]
+        if not alive:
+            chosen.remove(next(n for n in chosen if n.startswith(rtype)))
+    plan = sorted((draw(st.floats(1.0, 900.0)), n) for n in chosen)
+    return team, plan
+
+
+@given(seed=st.integers(0, 10_000), policy=POLICIES, plan=failure_plans())
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_missions_survive_abrupt_failures(seed, policy, plan):
+    team, failures = plan
+    m = Mission(small_scenario(sites=3, minerals=9, team=team), seed, policy)
+    watch = InvariantWatch(m)
+    for t, name in failures:
+        m.advance(t)
+        if m.done:
+            break
+        m.disable_robot(name, "abrupt")
+    m.run()
+    watch.final()
+    assert m.status == "completed", (failures, m.metrics())
+    assert m.ctx.delivered == m.ctx.minerals_total
+    assert m.ctx.sites_found == len(m.ctx.sites)
