@@ -25,7 +25,7 @@ class BoundWorld:
 
     plant: Point
     sites: tuple[tuple[float, float, int], ...]  # x, y, minerals
-    scout_routes: tuple[tuple[Point, ...], ...]  # each scout's waypoints in spiral order
+    scout_routes: tuple[tuple[Point, ...], ...]  # each scout's waypoints in order; () = unknown
     start_spread: float  # every robot starts within this distance of the plant
     craters: tuple[tuple[float, float, float], ...]  # x, y, radius
     clearance: float  # the planner keeps this far from rims (plus a safety margin)
@@ -64,9 +64,12 @@ def found_bounds(w: BoundWorld) -> np.ndarray:
     d_plant = np.hypot(xy[:, 0] - px, xy[:, 1] - py)
     r = w.scan_radius * (1 + 1e-9) + 1e-9  # a hair wider: only ever earlier
     reach_any = np.maximum(0.0, d_plant - w.start_spread - r)  # any path from the start ring
+    if not w.scout_routes:
+        return np.asarray(reach_any / w.v_scout)
     best = np.full(len(xy), np.inf)
     for route in w.scout_routes:
-        if not route:
+        if not route:  # a scout without cells: allow it anything
+            best = np.minimum(best, reach_any)
             continue
         a = np.asarray(route, dtype=float)
         # the first leg: straight if the disc around P holding the start and A₁ is clear
@@ -83,7 +86,8 @@ def found_bounds(w: BoundWorld) -> np.ndarray:
             chunk = xy[lo : lo + 64]
             t = _leg_bounds(a, leg, prefix, straight, chunk, r)
             best[lo : lo + 64] = np.minimum(best[lo : lo + 64], t)
-        # sitting at the last waypoint: seen only if within r of it (covered by the legs)
+    # a site no route passes: the engine never places one, but stay valid if it did
+    best = np.where(np.isfinite(best), best, reach_any)
     return np.asarray(best / w.v_scout)
 
 
@@ -215,7 +219,9 @@ def bound_world(scenario: Any, seed: int) -> BoundWorld:
     """The world a run of (scenario, seed) plays in, as the engine generates it.
 
     Builds the mission with the straight-line planner (the world and the scout routes do
-    not depend on the planner) and reads its world and spiral routes.
+    not depend on the planner) and reads its world and spiral routes. On a lossy or slow bus
+    a scout may be wrongly declared failed and its cells handed to another, so the spiral
+    is then not relied on (routes left empty: only the route-free search bound applies).
     """
     from engine import Mission
     from engine.world import CLEARANCE
@@ -231,6 +237,8 @@ def bound_world(scenario: Any, seed: int) -> BoundWorld:
     finally:
         mission.close()
     s = scenario
+    if s.bus.loss > 0 or s.bus.latency_s > 0 or s.bus.jitter_s > 0:
+        routes = ()
     return BoundWorld(
         plant=world.plant,
         sites=tuple((site.x, site.y, site.minerals) for site in world.sites),

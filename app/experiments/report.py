@@ -52,8 +52,10 @@ def panel_verdict(
     d = per[best.name]
     word = "shortest" if unit == "s" else "lowest"
     half = None if d["ci95"][1] is None else d["ci95"][1] - d["mean"]
-    spread = f" ± {fmt_num(half)}" if half is not None else ""
-    head = f"{best.label} has the {word} mean {quantity} ({fmt_num(d['mean'])}{spread} {unit}"
+    digits = 2 if abs(d["mean"]) < 10 else 1
+    spread = f" ± {fmt_num(half, digits)}" if half is not None else ""
+    mean = fmt_num(d["mean"], digits)
+    head = f"{best.label} has the {word} mean {quantity} ({mean}{spread} {unit}"
     head += ", 95% CI)." if half is not None else f", n={d['n']})."
     if len(have) == 1:
         return head

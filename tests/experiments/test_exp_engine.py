@@ -47,11 +47,11 @@ SMALL: dict[str, Any] = {"name": "small", "width": 40.0, "height": 40.0, "sites"
 
 
 @settings(
-    max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True
+    max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True
 )
 @given(
     seed=st.integers(0, 10_000),
-    minerals=st.integers(4, 16),
+    minerals=st.integers(4, 12),
     team=st.tuples(st.integers(1, 3), st.integers(1, 3), st.integers(1, 4)),
     craters=st.integers(0, 5),
     speeds=st.tuples(st.sampled_from([0.5, 1.0, 2.0]), st.sampled_from([0.3, 0.5, 1.0])),
