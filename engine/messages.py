@@ -111,6 +111,19 @@ class Holding(Message):
     auction_id: str
 
 
+class Probe(Message):
+    """'Are you there?' to a silent peer before declaring it failed; answered by a heartbeat."""
+
+    target: Name
+
+
+class Revoke(Message):
+    """The auctioneer takes a task back from a robot: its earlier holder turned out alive."""
+
+    task_id: str
+    robot: Name
+
+
 class Takeover(Message):
     """A robot adopts a silent peer's auctions, monitored tasks and (scouts) its unscanned cells."""
 
@@ -145,6 +158,8 @@ ALL_MESSAGES: tuple[type[Message], ...] = (
     Heartbeat,
     TaskDone,
     Holding,
+    Probe,
+    Revoke,
     Takeover,
     Leaving,
     Hello,

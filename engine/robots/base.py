@@ -27,6 +27,8 @@ from engine.messages import (
     Holding,
     Leaving,
     Message,
+    Probe,
+    Revoke,
     Takeover,
     TaskDone,
     TaskType,
@@ -84,6 +86,8 @@ class Robot:
         self._procs: list[Any] = []
         self._wake_event: simpy.Event | None = None
         self._wake_pending = False
+        self._life_proc: Any = None
+        self._probing: set[str] = set()
         self._reset_knowledge()
         ctx.liveness.add(name)
         ctx.bus.subscribe(name, self.on_message)
@@ -101,7 +105,8 @@ class Robot:
 
     # --- lifecycle ----------------------------------------------------------------------
     def start(self, joined_late: bool = False) -> None:
-        self._spawn(self._life_guarded())
+        self._life_proc = self.env.process(self._life_guarded())
+        self._procs.append(self._life_proc)
         self._spawn(self._tick())
         if joined_late:
             self.ctx.bus.publish(Hello(sender=self.name, rtype=self.rtype))
@@ -110,14 +115,24 @@ class Robot:
         self._procs.append(self.env.process(gen))
 
     def _life_guarded(self) -> Any:
-        try:
-            yield from self.life()
-        except simpy.Interrupt:
-            return
+        while True:
+            try:
+                yield from self.life()
+                return
+            except simpy.Interrupt as irq:
+                if irq.cause != "revoked" or not self.alive:
+                    return
+                self._end_motion()  # the task was taken back: stop and look again
+                self.on_revoked()
 
     def life(self) -> Any:
         """The robot's behaviour; subclasses override."""
         yield self.env.event()
+
+    def on_revoked(self) -> None:
+        """Hook: tidy up after the current task was revoked mid-way."""
+        self.current = None
+        self.consider_bids()
 
     def _tick(self) -> Any:
         proto = self.ctx.scenario.protocol
@@ -342,12 +357,37 @@ class Robot:
         """Hook for subclasses."""
 
     def _on_holding(self, msg: Holding) -> None:
+        """A robot I re-auctioned a task from is alive and still on it: it keeps the task."""
         for rec in list(self.house.open_auctions.values()):
             if rec.task_id == msg.task_id:
                 self.house.cancel(rec.id)
                 self.house.allocations[msg.task_id] = Allocation(
                     rec.id, rec.task_id, rec.task_type, rec.location, msg.sender, self.env.now
                 )
+                return
+        alloc = self.house.allocations.get(msg.task_id)
+        if alloc is not None and alloc.winner != msg.sender:
+            self.ctx.bus.publish(Revoke(sender=self.name, task_id=msg.task_id, robot=alloc.winner))
+            self.ctx.emit("task_revoked", by=self.name, robot=alloc.winner, task_id=msg.task_id)
+            alloc.winner = msg.sender
+
+    def _on_revoke(self, msg: Revoke) -> None:
+        if msg.robot != self.name:
+            return
+        self.queue = deque(a for a in self.queue if a.task_id != msg.task_id)
+        cur = self.current
+        if cur is not None and cur.task_id == msg.task_id:
+            if self.load():  # carrying the mineral: this robot is the real holder
+                self.ctx.bus.publish(
+                    Holding(sender=self.name, task_id=cur.task_id, auction_id=cur.auction_id)
+                )
+            elif self._life_proc is not None and self._life_proc.is_alive:
+                self.ctx.emit("task_ended", robot=self.name, task_id=cur.task_id, outcome="revoked")
+                self._life_proc.interrupt("revoked")
+
+    def _on_probe(self, msg: Probe) -> None:
+        if msg.target == self.name and self.participating:
+            self.heartbeat()
 
     def _on_takeover(self, msg: Takeover) -> None:
         mine = self.adopted.get(msg.failed)
@@ -489,9 +529,9 @@ class Robot:
         now = float(self.env.now)
         board = self.ctx.liveness
         for peer in board.silent(self.name, now, proto.failure_timeout_s):
-            if peer not in self.down:
-                self.down.add(peer)
-                self.peer_down(peer)
+            if peer not in self.down and peer not in self._probing:
+                self._probing.add(peer)
+                self._spawn(self._probe(peer))
         # an auction whose auctioneer no longer lists it has closed (we missed the Close)
         for aid, info in list(self.open_auctions.items()):
             hb = board.last_heartbeat(self.name, info.auctioneer)
@@ -508,6 +548,23 @@ class Robot:
             elif tid not in hb.tasks:
                 del self.house.allocations[tid]
                 self.reauction(alloc, hb)
+
+    def _probe(self, peer: str) -> Any:
+        """Ask a silent peer directly a few times before declaring it failed: on a lossy bus a
+        run of lost heartbeats is not a failure, and a false alarm costs a duplicate task."""
+        proto = self.ctx.scenario.protocol
+        asked_at = float(self.env.now)
+        try:
+            for _ in range(proto.probes):
+                self.ctx.bus.publish(Probe(sender=self.name, target=peer))
+                yield self.env.timeout(proto.ack_timeout_s)
+                if self.ctx.liveness.last_heard(self.name, peer) >= asked_at:
+                    return
+        finally:
+            self._probing.discard(peer)
+        if peer not in self.down and self.participating:
+            self.down.add(peer)
+            self.peer_down(peer)
 
     def peer_down(self, peer: str) -> None:
         """`peer` fell silent or left: re-auction what it held from me, adopt its duties."""
@@ -650,4 +707,6 @@ _HANDLERS: dict[type[Message], Any] = {
     Takeover: Robot._on_takeover,
     Leaving: Robot._on_leaving,
     Hello: Robot._on_hello,
+    Probe: Robot._on_probe,
+    Revoke: Robot._on_revoke,
 }

@@ -179,6 +179,14 @@ class Excavator(Robot):
     def on_close_heard(self, msg: Close) -> None:
         pass
 
+    def on_revoked(self) -> None:
+        site = self.ctx.site_at(self.pos)
+        if site is not None and site.worker == self.name:
+            site.worker = None
+        self.waiting_for = None
+        self._arrival = None
+        super().on_revoked()
+
     def drop_loads(self) -> None:
         if self.bucket:
             self.bucket = 0

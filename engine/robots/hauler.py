@@ -173,6 +173,10 @@ class Hauler(Robot):
             self.wake()
             self.consider_bids()
 
+    def on_revoked(self) -> None:
+        self._loaded = None
+        super().on_revoked()
+
     def drop_loads(self) -> None:
         if self.bin:
             self.bin = 0

@@ -1,0 +1,112 @@
+"""Issue 3: robots fail, messages get lost, robots join — and no mineral or site is lost."""
+
+import pytest
+
+from engine import Mission, parse_scenario, reference_scenario
+from tests.engine.factories import events_of
+from tests.engine.invariants import InvariantWatch
+
+
+def lossy(loss: float = 0.3, latency: float = 0.5, jitter: float = 0.5):
+    data = reference_scenario().model_dump()
+    data["bus"] = {"loss": loss, "latency_s": latency, "jitter_s": jitter}
+    return parse_scenario(data)
+
+
+@pytest.mark.parametrize("policy", ["fcfs", "coalition", "nearest"])
+def test_missions_complete_on_a_lossy_slow_bus_without_duplicate_allocation(policy):
+    for seed in (0, 1):
+        m = Mission(lossy(), seed, policy)
+        watch = InvariantWatch(m)
+        metrics = m.run()
+        watch.final()
+        assert metrics["completed"], (policy, seed)
+        assert metrics["minerals_delivered"] == metrics["minerals_total"] == 64
+        assert metrics["messages_lost"] > 0.2 * metrics["messages"]
+
+
+def test_an_added_robot_bids_at_once_and_wins_auctions():
+    m = Mission(reference_scenario(), 0, "fcfs")
+    m.advance(600)
+    name = m.add_robot("excavator", (50.0, 50.0))
+    assert name == "excavator-5"
+    m.run()
+    assert m.status == "completed"
+    assert [b for b in events_of(m, "bid") if b["bidder"] == name]
+    won = [a for a in m.auctions if a.allocated_to == name]
+    assert won and all(a.opened_at >= 600 for a in won)
+
+
+def test_an_enabled_robot_rejoins_and_wins_auctions_again():
+    m = Mission(reference_scenario(), 1, "nearest")
+    m.advance(300)
+    m.disable_robot("excavator-2", "abrupt")
+    m.advance(700)
+    assert not [a for a in m.auctions if a.allocated_to == "excavator-2" and a.closed_at > 300]
+    m.enable_robot("excavator-2")
+    m.run()
+    assert m.status == "completed"
+    assert [a for a in m.auctions if a.allocated_to == "excavator-2" and a.closed_at > 700]
+
+
+def test_the_site_of_a_scout_that_dies_holding_its_auction_is_still_excavated():
+    m = Mission(reference_scenario(), 2, "fcfs")
+    opened: list = []
+    m.subscribe(lambda e: opened.append(e) if e.kind == "auction_opened" else None)
+    while not opened or opened[0].data["kind"] != "scout_excavator":
+        opened.clear()
+        m.advance(m.now + 0.5)
+    first = m.ctx.auctions_by_id[opened[0].data["auction_id"]]
+    assert first.status == "open"
+    m.disable_robot(first.auctioneer, "abrupt")
+    m.run()
+    assert m.status == "completed"
+    site = m.ctx.site_at(first.location)
+    assert site is not None and site.remaining == 0
+    adopted = [a for a in m.auctions if a.reauction_of == first.id]
+    assert adopted and adopted[0].auctioneer != first.auctioneer
+    assert adopted[0].status == "closed"
+
+
+def test_a_hauler_failing_with_a_mineral_drops_it_and_a_recovery_delivers_it():
+    m = Mission(reference_scenario(), 3, "fcfs")
+    while True:  # wait until some hauler carries a mineral, then fail it
+        m.advance(m.now + 5)
+        carrying = [r for r in m.ctx.robots.values() if r.rtype == "hauler" and r.load()]
+        if carrying:
+            break
+    m.disable_robot(carrying[0].name, "abrupt")
+    metrics = m.run()
+    assert metrics["completed"]
+    assert metrics["minerals_dropped"] == 1 == metrics["minerals_recovered"]
+    assert metrics["minerals_delivered"] == 64
+    assert metrics["reauctions"] >= 1
+
+
+def test_graceful_disable_finishes_the_hand_over_then_releases_the_site():
+    m = Mission(reference_scenario(), 4, "fcfs")
+    while not [e for e in events_of(m, "dug") if e["robot"] == "excavator-1"]:
+        m.advance(m.now + 5)
+    m.disable_robot("excavator-1", "graceful")
+    m.run()
+    assert m.status == "completed"
+    assert m.robot("excavator-1").state == "disabled"
+    assert m.ctx.dropped == 0  # nothing fell: the hand-over was finished
+    released = [e for e in events_of(m, "task_ended") if e["outcome"] == "released"]
+    assert released and released[0]["robot"] == "excavator-1"
+
+
+def test_commands_on_down_or_unknown_robots_are_rejected():
+    from engine import CommandRejected, UnknownRobotError
+
+    m = Mission(reference_scenario(), 0, "fcfs")
+    m.advance(10)
+    with pytest.raises(UnknownRobotError):
+        m.disable_robot("hauler-99")
+    m.disable_robot("hauler-1", "abrupt")
+    with pytest.raises(CommandRejected):
+        m.disable_robot("hauler-1", "abrupt")
+    with pytest.raises(CommandRejected):
+        m.enable_robot("hauler-2")
+    with pytest.raises(CommandRejected):
+        m.inject_task("excavate", (500.0, 3.0))
