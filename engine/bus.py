@@ -72,6 +72,12 @@ class EmbeddedBus:
     def _publish_heartbeat(self, hb: Heartbeat) -> None:
         board, cfg = self._liveness, self._cfg
         serial = board.record_heartbeat(hb)
+        if self._ideal:
+            ev = self._env.timeout(0.0)
+            ev.callbacks.append(
+                lambda _e: board.deliver_heartbeat(hb.sender, serial, None, float(self._env.now))
+            )
+            return
         sender = board.index[hb.sender]
         receivers = np.arange(len(board.names))
         receivers = receivers[receivers != sender]

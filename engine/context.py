@@ -9,7 +9,6 @@ is bookkeeping for the researcher; no robot decision reads it.
 from __future__ import annotations
 
 import base64
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -109,7 +108,7 @@ class MissionContext:
                 "bid",
                 auction_id=data["auction_id"],
                 bidder=data["bidder"],
-                utility=data["utility"] if math.isfinite(data["utility"]) else None,
+                utility=data["utility"],
                 round=data["round"],
             )
 

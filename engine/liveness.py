@@ -23,7 +23,7 @@ class Liveness:
     def __init__(self, capacity: int = 16) -> None:
         self.index: dict[str, int] = {}
         self.names: list[str] = []
-        self.heard = np.full((capacity, capacity), -np.inf)
+        self.heard = np.full((capacity, capacity), np.inf)  # inf: never heard (never silent)
         self.hb_seen = np.full((capacity, capacity), -1, dtype=np.int64)
         self._history: dict[str, deque[tuple[int, Heartbeat]]] = {}
         self._hb_serial: dict[str, int] = {}
@@ -34,7 +34,7 @@ class Liveness:
         i = len(self.names)
         if i >= self.heard.shape[0]:
             cap = self.heard.shape[0] * 2
-            heard = np.full((cap, cap), -np.inf)
+            heard = np.full((cap, cap), np.inf)
             heard[:i, :i] = self.heard[:i, :i]
             seen = np.full((cap, cap), -1, dtype=np.int64)
             seen[:i, :i] = self.hb_seen[:i, :i]
@@ -57,8 +57,16 @@ class Liveness:
         self._history[hb.sender].append((n, hb))
         return n
 
-    def deliver_heartbeat(self, sender: str, serial: int, receivers: np.ndarray, t: float) -> None:
+    def deliver_heartbeat(
+        self, sender: str, serial: int, receivers: np.ndarray | None, t: float
+    ) -> None:
+        """`receivers` None: everyone heard it (the ideal bus), a cheap column write."""
         s = self.index[sender]
+        if receivers is None:
+            n = len(self.names)
+            self.heard[:n, s] = t
+            self.hb_seen[:n, s] = serial  # serials only grow, and this one reached all
+            return
         self.heard[receivers, s] = t
         self.hb_seen[receivers, s] = np.maximum(self.hb_seen[receivers, s], serial)
 
@@ -71,7 +79,8 @@ class Liveness:
         r, s = self.index.get(receiver), self.index.get(sender)
         if r is None or s is None:
             return -np.inf
-        return float(self.heard[r, s])
+        t = float(self.heard[r, s])
+        return -np.inf if t == np.inf else t
 
     def last_heartbeat(self, receiver: str, sender: str) -> Heartbeat | None:
         r, s = self.index.get(receiver), self.index.get(sender)
@@ -90,7 +99,5 @@ class Liveness:
     def silent(self, receiver: str, now: float, timeout: float) -> list[str]:
         """Peers this receiver has heard at least once but not within `timeout`."""
         r = self.index[receiver]
-        n = len(self.names)
-        row = self.heard[r, :n]
-        idx = np.nonzero(np.isfinite(row) & (now - row > timeout))[0]
+        idx = np.flatnonzero(self.heard[r, : len(self.names)] < now - timeout)
         return [self.names[i] for i in idx if i != r]

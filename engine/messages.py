@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -16,7 +17,8 @@ class Message(BaseModel):
     sender: Name
 
     def to_dict(self) -> dict[str, Any]:
-        d = self.model_dump(mode="json")
+        """JSON-ready fields plus `type`; a -inf utility becomes None (JSON has no infinity)."""
+        d = dict(self.__dict__)
         d["type"] = type(self).__name__.lower()
         return d
 
@@ -44,6 +46,12 @@ class Bid(Message):
     location: Location
     utility: float
     round: int
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        if not math.isfinite(self.utility):
+            d["utility"] = None
+        return d
 
 
 class Award(Message):

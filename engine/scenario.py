@@ -67,9 +67,9 @@ class Protocol(_Model):
     ack_timeout_s: Annotated[float, Field(gt=0, le=600, allow_inf_nan=False)] = 2.0
     retry_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 5.0
     award_collect_s: Annotated[float, Field(ge=0, le=600, allow_inf_nan=False)] = 0.2
-    heartbeat_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 5.0
+    heartbeat_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 10.0
     failure_timeout_s: Annotated[float, Field(gt=0, le=36000, allow_inf_nan=False)] = 30.0
-    probes: Annotated[int, Field(ge=0, le=20)] = 3
+    probes: Annotated[int, Field(ge=0, le=20)] = 5
 
     @model_validator(mode="after")
     def _consistent(self) -> Protocol:

@@ -112,7 +112,10 @@ class Robot:
             self.ctx.bus.publish(Hello(sender=self.name, rtype=self.rtype))
 
     def _spawn(self, gen: Any) -> None:
-        self._procs.append(self.env.process(gen))
+        """Run a side process of this robot; it ends quietly when the robot fails."""
+        if len(self._procs) > 32:
+            self._procs = [p for p in self._procs if p.is_alive]
+        self._procs.append(self.env.process(_until_interrupted(gen)))
 
     def _life_guarded(self) -> Any:
         while True:
@@ -497,9 +500,10 @@ class Robot:
     # --- liveness, monitoring, adoption ---------------------------------------------------
     def heartbeat(self) -> None:
         pos, _ = self.position()
-        tasks = [a.task_id for a in self.queue]
+        tasks = tuple(a.task_id for a in self.queue)
         if self.current is not None:
-            tasks.insert(0, self.current.task_id)
+            tasks = (self.current.task_id, *tasks)
+        load = self.load()
         self.ctx.bus.publish(
             Heartbeat(
                 sender=self.name,
@@ -508,11 +512,12 @@ class Robot:
                 x=pos[0],
                 y=pos[1],
                 state=self.state,
-                tasks=tuple(tasks),
+                tasks=tasks,
                 open_auctions=tuple(self.house.open_auctions),
                 progress=self.progress(),
-                path=tuple(self.remaining_route()[:16]),
-                load=self.load(),
+                # the route matters only to whoever must search for a mineral I carry
+                path=tuple(self.remaining_route()[:16]) if load else (),
+                load=load,
                 done=tuple(self.done_ids),
                 adopted=tuple(self.adopted),
             )
@@ -694,6 +699,13 @@ class Robot:
         self._reset_knowledge()
         self.house = AuctionHouse(self.name, self.ctx, self._on_allocated)
         self.start(joined_late=True)
+
+
+def _until_interrupted(gen: Any) -> Any:
+    try:
+        yield from gen
+    except simpy.Interrupt:
+        return
 
 
 _HANDLERS: dict[type[Message], Any] = {
