@@ -1,10 +1,10 @@
-"""The live runner: every engine call of every live mission happens on the event loop thread.
+"""The live runner: the registry of live missions and everything the event loop does for them.
 
-The engine is synchronous and OMPL's random generator is process-global, so missions are
-never stepped concurrently. One task advances all runnable missions in bounded slices (a
-few milliseconds of wall time, shared between missions), then yields, so HTTP requests and
-WebSocket viewers stay responsive even at "max" speed. A second task samples frames at a
-steady rate. Event batches go to the store every `flush_interval_s`, never per event.
+Missions advance on the stepping thread (`app/stepper.py`); everything else that touches
+an engine (commands, snapshots, frames, fan-out, batching) happens on the event loop under
+the same gate (`app/gate.py`), so no two threads ever touch the engine at once. Every
+`tick_s` the loop streams what the engine produced and writes it in batches; a separate task
+samples frames at a steady rate.
 """
 
 from __future__ import annotations
@@ -19,22 +19,27 @@ from time import perf_counter
 from typing import Any
 
 from app.db.models import utcnow
+from app.gate import Gate
 from app.live import Hub
 from app.services.recorder import Recorder
 from app.services.store import Store
 from app.settings import Settings
-from engine import Mission
+from app.stepper import Stepper
+from engine import Event, Mission
 
 log = logging.getLogger("regolith.runner")
 
 #: Event kinds not forwarded to viewers: raw bus traffic (bids arrive as `auction` updates).
 QUIET_KINDS = frozenset({"message", "bid"})
-_MIN_CHUNK, _MAX_CHUNK = 1e-3, 600.0
+#: Events per batch; a mission this far ahead of a batch still being written waits for it,
+#: so "max" speed never outruns the database and an operator waits behind little.
+BATCH_EVENTS = 1000
+TICK_S = 0.01
 
 
 @dataclass(eq=False)
 class LiveMission:
-    """A mission the runner is stepping, with its pacing and streaming state."""
+    """A mission being stepped, with its pacing and streaming state."""
 
     id: int
     mission: Mission
@@ -46,16 +51,26 @@ class LiveMission:
     anchor_wall: float = 0.0
     anchor_sim: float = 0.0
     finishing: bool = False
+    crashed: str | None = None
     last_flush: float = 0.0
     last_frame_t: float = -1.0
+    outbox: list[Event] = field(default_factory=list)
     dirty_auctions: set[str] = field(default_factory=set)
     row: Any = None  # the stored record's static fields (detached ORM object)
     final_status: str | None = None
     final_task: asyncio.Task[None] | None = None
+    writing: asyncio.Task[None] | None = None  # the latest batch write (they are chained)
 
     @property
     def runnable(self) -> bool:
-        return not (self.paused or self.finishing or self.mission.done)
+        """Stepping it now is allowed (not paused or ending, and the store keeps up)."""
+        if self.paused or self.finishing or self.crashed or self.mission.done:
+            return False
+        return self.write_idle or self.recorder.pending < BATCH_EVENTS
+
+    @property
+    def write_idle(self) -> bool:
+        return self.writing is None or self.writing.done()
 
     @property
     def status(self) -> str:
@@ -90,41 +105,48 @@ class LiveMission:
 
 
 class MissionRunner:
-    """Owns the live missions, their hubs and the two pacing tasks."""
+    """Owns the live missions, their hubs, the stepping thread and the loop-side tasks."""
 
     def __init__(self, settings: Settings, store: Store) -> None:
         self.settings = settings
         self.store = store
+        self.gate = Gate()
         self.live: dict[int, LiveMission] = {}
         self.hubs: dict[int, Hub] = {}
-        self.policies: dict[int, str] = {}
-        self._wake = asyncio.Event()
+        self.stepper = Stepper(
+            lambda: list(self.live.values()),
+            self.gate,
+            settings.slice_ms / 1000,
+            settings.max_lag_s,
+        )
         self._tasks: list[asyncio.Task[None]] = []
         self._pending: set[asyncio.Task[Any]] = set()
 
     # -- lifecycle ---------------------------------------------------------------------
 
     async def start(self) -> None:
+        self.stepper.start()
         self._tasks = [
-            asyncio.create_task(self._step_forever(), name="regolith-step"),
+            asyncio.create_task(self._tick_forever(), name="regolith-tick"),
             asyncio.create_task(self._frames_forever(), name="regolith-frames"),
         ]
 
     async def aclose(self) -> None:
         """Stop stepping, write everything out and mark unfinished missions interrupted."""
+        await asyncio.to_thread(self.stepper.stop)
         for task in self._tasks:
             task.cancel()
         for task in self._tasks:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
-        await self.drain()
         for lm in list(self.live.values()):
-            if lm.finishing:
-                continue
-            changes: dict[str, Any] = {"status": "interrupted", "final_state": self._safe_snap(lm)}
-            await self.store.write_batch(lm.recorder.collect(), changes)
-            lm.mission.close()
+            if not lm.finishing:
+                with self.gate:
+                    changes = {"status": "interrupted", "final_state": self._safe_snap(lm)}
+                    self._write(lm, changes)
         await self.drain()
+        for lm in self.live.values():
+            lm.mission.close()
         self.live.clear()
 
     async def drain(self) -> None:
@@ -164,7 +186,7 @@ class MissionRunner:
         paused: bool,
         recorder: Recorder | None = None,
     ) -> LiveMission:
-        """Start stepping `mission` (already stored under `mission_id`)."""
+        """Start stepping `mission` (already stored under `mission_id`; caller holds the gate)."""
         lm = LiveMission(
             id=mission_id,
             mission=mission,
@@ -177,25 +199,28 @@ class MissionRunner:
         lm.reanchor()
         mission.subscribe(lambda ev: self._on_event(lm, ev))
         self.live[mission_id] = lm
-        self.wake()
+        self.stepper.wake()
         return lm
-
-    def wake(self) -> None:
-        self._wake.set()
 
     def running_count(self) -> int:
         return sum(1 for lm in self.live.values() if not lm.finishing)
 
-    def _on_event(self, lm: LiveMission, ev: Any) -> None:
-        """Engine callback (inside `advance`): note auction changes, stream notable events."""
+    @staticmethod
+    def _on_event(lm: LiveMission, ev: Event) -> None:
+        """Engine callback, under the gate: note what to stream (the loop sends it)."""
+        if not lm.hub.viewers:
+            return
         aid = ev.data.get("auction_id")
-        if aid is not None and lm.hub.viewers:
+        if aid is not None:
             lm.dirty_auctions.add(aid)
-        if ev.kind not in QUIET_KINDS and lm.hub.viewers:
-            lm.hub.publish({"type": "event", "event": ev.to_dict()})
+        if ev.kind not in QUIET_KINDS:
+            lm.outbox.append(ev)
 
-    def publish_auctions(self, lm: LiveMission) -> None:
-        """One `auction` message per auction that changed since the last call."""
+    def publish_pending(self, lm: LiveMission) -> None:
+        """Stream the events and auction changes noted since the last call (under the gate)."""
+        events, lm.outbox = lm.outbox, []
+        for ev in events:
+            lm.hub.publish({"type": "event", "event": ev.to_dict()})
         if not lm.dirty_auctions:
             return
         dirty, lm.dirty_auctions = lm.dirty_auctions, set()
@@ -206,44 +231,61 @@ class MissionRunner:
             if aid in by_id:
                 lm.hub.publish({"type": "auction", "auction": by_id[aid].to_dict()})
 
-    async def flush(self, lm: LiveMission, changes: dict[str, Any] | None = None) -> None:
-        """Write everything new for `lm` now (reads after this see it)."""
+    def _write(self, lm: LiveMission, changes: dict[str, Any] | None = None) -> asyncio.Task[None]:
+        """Write what `lm` produced since the last write (under the gate), after that write:
+        order matters, a batch may update auctions the previous one inserts."""
+        batch = lm.recorder.collect()
+        previous = lm.writing
         lm.last_flush = perf_counter()
-        await self.store.write_batch(lm.recorder.collect(), changes)
 
-    def finish(self, lm: LiveMission, status: str) -> asyncio.Task[None] | None:
-        """End a mission (naturally or stopped): final batch, metrics, state; then drop it."""
+        async def write() -> None:
+            if previous is not None:
+                with contextlib.suppress(Exception):
+                    await previous
+            await self.store.write_batch(batch, changes)
+
+        lm.writing = self._spawn(write())
+        return lm.writing
+
+    async def flush(self, lm: LiveMission) -> None:
+        """Write everything new for `lm` now (reads after this see it)."""
+        with self.gate:
+            task = self._write(lm)
+        await task
+
+    def finish(
+        self, lm: LiveMission, status: str, error: str | None = None
+    ) -> asyncio.Task[None] | None:
+        """End a mission (naturally, stopped or failed; under the gate): stream the end, write
+        the final record (last batch, metrics, final state), then drop the engine."""
         if lm.finishing:
             return lm.final_task
         lm.finishing = True
         lm.final_status = status
-        self._publish_final(lm, status)
-        lm.final_task = self._spawn(self._finish(lm, status))
-        return lm.final_task
-
-    def _publish_final(self, lm: LiveMission, status: str) -> None:
-        self.publish_auctions(lm)
+        self.publish_pending(lm)
         try:
             lm.hub.publish_frame({**lm.mission.frame(), "status": status}, last=True)
         except Exception:  # a failed engine may not produce a frame; the status still goes
             log.exception("final frame of mission %s failed", lm.id)
         lm.hub.publish(lm.status_message())
+        changes: dict[str, Any] = {"status": status, "ended_at": utcnow()}
+        if error is None:
+            changes["metrics"] = lm.mission.metrics()
+            changes["final_state"] = self._safe_snap(lm)
+        else:
+            changes["error"] = error
+        written = self._write(lm, changes)
 
-    async def _finish(self, lm: LiveMission, status: str) -> None:
-        m = lm.mission
-        changes = {
-            "status": status,
-            "ended_at": utcnow(),
-            "metrics": m.metrics(),
-            "final_state": self._safe_snap(lm),
-        }
-        batch = lm.recorder.collect()
-        try:
-            await self.store.write_batch(batch, changes)
-        finally:
-            m.close()
-            self.live.pop(lm.id, None)
-            self.forget_hub(lm.id)
+        async def close() -> None:
+            try:
+                await written
+            finally:
+                lm.mission.close()
+                self.live.pop(lm.id, None)
+                self.forget_hub(lm.id)
+
+        lm.final_task = self._spawn(close())
+        return lm.final_task
 
     @staticmethod
     def _safe_snap(lm: LiveMission) -> dict[str, Any] | None:
@@ -254,77 +296,31 @@ class MissionRunner:
             log.exception("snapshot of mission %s failed", lm.id)
             return None
 
-    # -- pacing ------------------------------------------------------------------------
-
-    def _step(self, lm: LiveMission, wall: float, budget: float) -> bool:
-        """Advance `lm` towards its target for at most `budget` s; True if still behind."""
-        m = lm.mission
-        target = lm.target(wall, self.settings.max_lag_s)
-        end = perf_counter() + budget
-        while m.now < target and not m.done:
-            t0 = perf_counter()
-            m.advance(min(target, m.now + lm.chunk))
-            took = perf_counter() - t0
-            if took > budget / 4:
-                lm.chunk = max(lm.chunk / 2, _MIN_CHUNK)
-            elif took < budget / 16:
-                lm.chunk = min(lm.chunk * 2, _MAX_CHUNK)
-            if t0 + took >= end:
-                break
-        return m.now < target and not m.done
+    # -- loop-side tasks ---------------------------------------------------------------
 
     def _maintain(self) -> None:
-        """After a slice: stream auction changes, end finished missions, flush when due."""
+        """Stream what the engine produced, end finished missions, flush when due."""
         now = perf_counter()
-        for lm in list(self.live.values()):
-            if lm.finishing:
-                continue
-            self.publish_auctions(lm)
-            if lm.mission.done:
-                self.finish(lm, str(lm.mission.status))
-            elif now - lm.last_flush >= self.settings.flush_interval_s:
-                lm.last_flush = now
-                self._spawn(self.store.write_batch(lm.recorder.collect()))
+        with self.gate:
+            for lm in list(self.live.values()):
+                if lm.finishing:
+                    continue
+                self.publish_pending(lm)
+                if lm.crashed is not None:
+                    self.finish(lm, "failed", error=lm.crashed)
+                elif lm.mission.done:
+                    self.finish(lm, str(lm.mission.status))
+                elif lm.write_idle and (
+                    now - lm.last_flush >= self.settings.flush_interval_s
+                    or lm.recorder.pending >= BATCH_EVENTS
+                ):
+                    self._write(lm)
+                    self.stepper.wake()
 
-    async def _step_forever(self) -> None:
-        budget = self.settings.slice_ms / 1000
+    async def _tick_forever(self) -> None:
         while True:
-            active = [lm for lm in self.live.values() if lm.runnable]
-            if not active:
-                self._wake.clear()
-                with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(self._wake.wait(), self.settings.flush_interval_s)
-                self._maintain()
-                continue
-            share = max(budget / len(active), 1e-3)
-            behind = False
-            for lm in active:
-                try:
-                    behind |= self._step(lm, perf_counter(), share)
-                except Exception as exc:  # an engine bug ends that mission, not the server
-                    log.exception("mission %s failed while stepping", lm.id)
-                    self._fail(lm, exc)
+            await asyncio.sleep(TICK_S)
             self._maintain()
-            await asyncio.sleep(0 if behind else 0.01)
-
-    def _fail(self, lm: LiveMission, exc: Exception) -> None:
-        lm.finishing = True
-        lm.final_status = "failed"
-        self._publish_final(lm, "failed")
-        changes = {
-            "status": "failed",
-            "ended_at": utcnow(),
-            "error": f"{type(exc).__name__}: {exc}",
-        }
-
-        async def _write() -> None:
-            try:
-                await self.store.write_batch(lm.recorder.collect(), changes)
-            finally:
-                lm.mission.close()
-                self.live.pop(lm.id, None)
-
-        lm.final_task = self._spawn(_write())
 
     async def _frames_forever(self) -> None:
         period = 1.0 / self.settings.frame_hz
@@ -332,12 +328,13 @@ class MissionRunner:
         while True:
             next_at += period
             delay = next_at - perf_counter()
-            if delay < 0:  # fell behind (a long engine slice): skip, never burst
+            if delay < 0:  # fell behind: skip, never burst
                 next_at = perf_counter()
                 delay = 0
             await asyncio.sleep(delay)
-            for lm in list(self.live.values()):
-                if lm.finishing or not lm.hub.viewers or lm.mission.now == lm.last_frame_t:
-                    continue
-                lm.last_frame_t = float(lm.mission.now)
-                lm.hub.publish_frame(lm.mission.frame())
+            with self.gate:
+                for lm in list(self.live.values()):
+                    if lm.finishing or not lm.hub.viewers or lm.mission.now == lm.last_frame_t:
+                        continue
+                    lm.last_frame_t = float(lm.mission.now)
+                    lm.hub.publish_frame(lm.mission.frame())

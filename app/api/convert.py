@@ -1,25 +1,25 @@
-"""Storage rows (plus live state when the mission is running) → API schemas."""
+"""Storage rows (plus a live reading while the mission runs) → API schemas."""
 
 from __future__ import annotations
 
 from app.api.schemas import ActionRead, AuctionRead, AwardRead, BidRead, MissionDetail, MissionRead
 from app.db.models import Auction
 from app.db.models import Mission as MissionRow
-from app.runner import LiveMission
+from app.services.missions import LiveState
 
 
-def mission_read(row: MissionRow, lm: LiveMission | None) -> MissionRead:
-    speed = lm.speed if lm is not None else row.speed
+def mission_read(row: MissionRow, live: LiveState | None) -> MissionRead:
+    speed = live.speed if live is not None else row.speed
     return MissionRead(
         id=row.id,
-        status=lm.status if lm is not None else row.status,  # type: ignore[arg-type]
-        policy=lm.mission.policy if lm is not None else row.current_policy,
+        status=live.status if live is not None else row.status,  # type: ignore[arg-type]
+        policy=live.policy if live is not None else row.current_policy,
         initial_policy=row.policy,
         seed=row.seed,
         speed="max" if speed is None else speed,
         planner=row.planner,
         scenario_name=row.scenario_name,
-        sim_time=float(lm.mission.now) if lm is not None else row.sim_time,
+        sim_time=live.sim_time if live is not None else row.sim_time,
         created_at=row.created_at,
         started_at=row.started_at,
         ended_at=row.ended_at,
@@ -28,14 +28,16 @@ def mission_read(row: MissionRow, lm: LiveMission | None) -> MissionRead:
 
 
 def mission_detail(
-    row: MissionRow, lm: LiveMission | None, actions: list[ActionRead] | None = None
+    row: MissionRow, live: LiveState | None, actions: list[ActionRead] | None = None
 ) -> MissionDetail:
-    metrics = lm.mission.metrics() if lm is not None and not lm.finishing else row.metrics
+    metrics = live.metrics if live is not None else row.metrics
+    if actions is None:
+        actions = [ActionRead.model_validate(a) for a in row.actions]
     return MissionDetail(
-        **mission_read(row, lm).model_dump(),
+        **mission_read(row, live).model_dump(),
         scenario=row.scenario,
         metrics=metrics,
-        actions=[ActionRead.model_validate(a) for a in row.actions] if actions is None else actions,
+        actions=actions,
     )
 
 

@@ -34,14 +34,19 @@ def get_services(conn: HTTPConnection) -> Services:
     return services
 
 
-ServicesDep = Annotated[Services, Depends(get_services)]
+async def services_dep(conn: HTTPConnection) -> Services:
+    """Async on purpose: a plain `def` dependency would cost a thread-pool hop per request."""
+    return get_services(conn)
 
 
-def get_missions(services: ServicesDep) -> MissionService:
+ServicesDep = Annotated[Services, Depends(services_dep)]
+
+
+async def get_missions(services: ServicesDep) -> MissionService:
     return services.missions
 
 
-def get_commands(services: ServicesDep) -> RobotCommands:
+async def get_commands(services: ServicesDep) -> RobotCommands:
     return services.commands
 
 
@@ -68,11 +73,11 @@ def check_token(credentials: HTTPAuthorizationCredentials | None, expected: str)
         raise HTTPException(status.HTTP_403_FORBIDDEN, "operator token is wrong")
 
 
-def require_operator(request: Request, credentials: Credentials) -> None:
+async def require_operator(request: Request, credentials: Credentials) -> None:
     check_token(credentials, get_services(request).token)
 
 
-def require_viewer(request: Request, credentials: Credentials) -> None:
+async def require_viewer(request: Request, credentials: Credentials) -> None:
     services = get_services(request)
     if services.settings.read_requires_token:
         check_token(credentials, services.token)

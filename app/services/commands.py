@@ -35,40 +35,54 @@ class RobotCommands:
 
     def __init__(self, missions: MissionService) -> None:
         self.missions = missions
+        self.gate = missions.gate
+
+    async def _commit(self, lm: LiveMission, action: dict[str, Any]) -> None:
+        await self.missions.store.record_action(lm.id, action, True, {})
 
     async def disable(self, mission_id: int, name: str, mode: str) -> dict[str, Any]:
         lm = await self.missions.live(mission_id)
-        lm.mission.disable_robot(name, mode=mode)
-        await self.missions.record_engine_action(lm, {})
-        return _robot(lm, name)
+        with self.gate:
+            lm.mission.disable_robot(name, mode=mode)
+            action = self.missions.engine_action(lm)
+            robot = _robot(lm, name)
+        await self._commit(lm, action)
+        return robot
 
     async def enable(self, mission_id: int, name: str) -> dict[str, Any]:
         lm = await self.missions.live(mission_id)
-        lm.mission.enable_robot(name)
-        await self.missions.record_engine_action(lm, {})
-        return _robot(lm, name)
+        with self.gate:
+            lm.mission.enable_robot(name)
+            action = self.missions.engine_action(lm)
+            robot = _robot(lm, name)
+        await self._commit(lm, action)
+        return robot
 
     async def add(self, mission_id: int, rtype: str, position: Point | None) -> dict[str, Any]:
         lm = await self.missions.live(mission_id)
         limit = self.missions.settings.max_robots
-        if len(lm.mission.robot_list()) >= limit:
-            raise LimitExceeded(f"mission {mission_id} already has {limit} robots (the limit)")
-        if position is not None:
-            _inside(lm, position, ("body", "position"))
-        try:
-            name = lm.mission.add_robot(rtype, position)
-        except CommandRejected as exc:
-            raise Invalid(str(exc), ("body", "position" if position else "type")) from None
-        await self.missions.record_engine_action(lm, {})
-        return _robot(lm, name)
+        with self.gate:
+            if len(lm.mission.robot_list()) >= limit:
+                raise LimitExceeded(f"mission {mission_id} already has {limit} robots (the limit)")
+            if position is not None:
+                _inside(lm, position, ("body", "position"))
+            try:
+                name = lm.mission.add_robot(rtype, position)
+            except CommandRejected as exc:
+                raise Invalid(str(exc), ("body", "position" if position else "type")) from None
+            action = self.missions.engine_action(lm)
+            robot = _robot(lm, name)
+        await self._commit(lm, action)
+        return robot
 
     async def inject_task(self, mission_id: int, task_type: str, location: Point) -> str:
         lm = await self.missions.live(mission_id)
-        _inside(lm, location, ("body", "location"))
-        try:
-            auction_id = lm.mission.inject_task(task_type=task_type, location=location)
-        except CommandRejected as exc:
-            raise Invalid(str(exc), ("body", "location")) from None
-        await self.missions.record_engine_action(lm, {})
-        self.missions.runner.publish_auctions(lm)
+        with self.gate:
+            _inside(lm, location, ("body", "location"))
+            try:
+                auction_id = lm.mission.inject_task(task_type=task_type, location=location)
+            except CommandRejected as exc:
+                raise Invalid(str(exc), ("body", "location")) from None
+            action = self.missions.engine_action(lm)
+        await self._commit(lm, action)
         return str(auction_id)

@@ -1,17 +1,19 @@
 """Mission lifecycle: create, pause, resume, stop, speed and policy, plus the reads they need.
 
-Every change goes the same way: check the mission is live, apply it (engine calls happen on
-the loop thread, between runner slices), commit the action with its simulation time, then
-answer. Streaming follows from the engine's own events and `status` messages.
+Every change goes the same way: check the mission is live, apply it under the engine gate
+(between two steps of the stepping thread), commit the action with its simulation time,
+then answer. Streaming follows from the engine's own events and `status` messages.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any, Literal
 
-from app.db.models import Action, utcnow
 from app.db.models import Mission as MissionRow
+from app.db.models import utcnow
+from app.live import Hub, Viewer, encode
 from app.runner import LiveMission, MissionRunner
 from app.services import queries
 from app.services.errors import Conflict, LimitExceeded, NotFound
@@ -20,13 +22,34 @@ from app.services.store import Store
 from app.settings import Settings
 from engine import Mission, Scenario, reference_scenario
 
-FINISHED = ("completed", "timeout", "stopped", "failed")
 Speed = float | Literal["max"]
 
 
 def speed_value(speed: Speed) -> float | None:
     """API speed → runner speed (None is "max")."""
     return None if speed == "max" else float(speed)
+
+
+@dataclass(frozen=True)
+class LiveState:
+    """A consistent reading of a live mission, taken under the gate."""
+
+    status: str
+    policy: str
+    speed: float | None
+    sim_time: float
+    metrics: dict[str, Any] | None = None
+
+
+def live_state(lm: LiveMission, metrics: bool = False) -> LiveState:
+    """Read `lm` (the caller holds the gate)."""
+    return LiveState(
+        status=lm.status,
+        policy=lm.mission.policy,
+        speed=lm.speed,
+        sim_time=float(lm.mission.now),
+        metrics=lm.mission.metrics() if metrics else None,
+    )
 
 
 class MissionService:
@@ -36,6 +59,7 @@ class MissionService:
         self.settings = settings
         self.store = store
         self.runner = runner
+        self.gate = runner.gate
 
     # -- lookups -----------------------------------------------------------------------
 
@@ -60,6 +84,28 @@ class MissionService:
         if lm is not None and lm.finishing and lm.final_task is not None:
             await lm.final_task
 
+    async def detail(
+        self, mission_id: int, metrics: bool = False
+    ) -> tuple[MissionRow, LiveState | None]:
+        """The stored row with the live state, if any; never a half-finished pair."""
+        while True:
+            await self.settled(mission_id)
+            row = await self.row(mission_id)
+            lm = self.runner.live.get(mission_id)
+            if lm is None:
+                return row, None
+            if not lm.finishing:
+                with self.gate:
+                    return row, live_state(lm, metrics)
+
+    async def current(self, mission_id: int) -> tuple[MissionRow, LiveState | None]:
+        """Like `detail` but answered from memory while live (no database round trip)."""
+        lm = self.runner.live.get(mission_id)
+        if lm is not None and lm.row is not None and not lm.finishing:
+            with self.gate:
+                return lm.row, live_state(lm)
+        return await self.detail(mission_id)
+
     # -- create ------------------------------------------------------------------------
 
     async def create(
@@ -71,47 +117,56 @@ class MissionService:
         paused: bool,
         scenario: Scenario | None,
         planner: str,
-    ) -> tuple[MissionRow, LiveMission]:
+    ) -> tuple[MissionRow, LiveState]:
         if self.runner.running_count() >= self.settings.max_running_missions:
             raise LimitExceeded(
                 f"{self.settings.max_running_missions} missions are already live; "
                 "stop one or raise REGOLITH_MAX_RUNNING_MISSIONS"
             )
         scenario = scenario or reference_scenario()
-        mission = Mission(scenario, seed, policy, planner=planner)
+        with self.gate:  # building the planner seeds OMPL: nothing may step meanwhile
+            mission = Mission(scenario, seed, policy, planner=planner)  # type: ignore[arg-type]
+            world = mission.world_map()
         paused = paused or speed == 0
         rate = 1.0 if speed == 0 else speed_value(speed)
-        row = await self.store.create_mission(
-            {
-                "scenario_name": scenario.name,
-                "scenario": scenario.model_dump(mode="json"),
-                "seed": seed,
-                "policy": policy,
-                "current_policy": policy,
-                "planner": planner,
-                "status": "paused" if paused else "running",
-                "speed": rate,
-                "started_at": None if paused else utcnow(),
-                "world_map": mission.world_map(),
-            }
-        )
-        lm = self.runner.add(row.id, mission, speed=rate, paused=paused)
-        lm.row = row
-        return row, lm
+        try:
+            row = await self.store.create_mission(
+                {
+                    "scenario_name": scenario.name,
+                    "scenario": scenario.model_dump(mode="json"),
+                    "seed": seed,
+                    "policy": policy,
+                    "current_policy": policy,
+                    "planner": planner,
+                    "status": "paused" if paused else "running",
+                    "speed": rate,
+                    "started_at": None if paused else utcnow(),
+                    "world_map": world,
+                }
+            )
+        except BaseException:
+            mission.close()
+            raise
+        with self.gate:
+            lm = self.runner.add(row.id, mission, speed=rate, paused=paused)
+            lm.row = row
+            return row, live_state(lm, metrics=True)
 
     # -- lifecycle ---------------------------------------------------------------------
 
     async def _record(
-        self, lm: LiveMission, kind: str, args: dict[str, Any], changes: dict[str, Any]
-    ) -> Action:
-        action = {"t": float(lm.mission.now), "kind": kind, "args": args}
-        return await self.store.record_action(lm.id, action, False, changes)
+        self, lm: LiveMission, t: float, kind: str, args: dict[str, Any], changes: dict[str, Any]
+    ) -> None:
+        action = {"t": t, "kind": kind, "args": args}
+        await self.store.record_action(lm.id, action, False, changes)
 
     async def pause(self, mission_id: int) -> None:
         lm = await self.live(mission_id)
-        lm.paused = True
-        lm.hub.publish(lm.status_message())
-        await self._record(lm, "pause", {}, {"status": "paused", "sim_time": lm.mission.now})
+        with self.gate:
+            lm.paused = True
+            t = float(lm.mission.now)
+            lm.hub.publish(lm.status_message())
+        await self._record(lm, t, "pause", {}, {"status": "paused", "sim_time": t})
 
     async def resume(self, mission_id: int) -> None:
         lm = self.runner.live.get(mission_id)
@@ -122,24 +177,25 @@ class MissionService:
             if self.runner.running_count() >= self.settings.max_running_missions:
                 raise LimitExceeded("too many live missions to resume another one")
             lm = await revive(self.runner, self.store, row)
-            lm.paused = True
         elif lm.finishing:
             raise Conflict(f"mission {mission_id} is {lm.status}; it cannot be resumed")
-        changes: dict[str, Any] = {"status": "running", "sim_time": lm.mission.now}
-        if lm.row is None or lm.row.started_at is None:
-            changes["started_at"] = utcnow()
-            if lm.row is not None:
-                lm.row.started_at = changes["started_at"]
-        lm.paused = False
-        lm.reanchor()
-        self.runner.wake()
-        lm.hub.publish(lm.status_message())
-        await self._record(lm, "resume", {}, changes)
+        changes: dict[str, Any] = {"status": "running"}
+        with self.gate:
+            if lm.row is not None and lm.row.started_at is None:
+                lm.row.started_at = changes["started_at"] = utcnow()
+            lm.paused = False
+            lm.reanchor()
+            t = changes["sim_time"] = float(lm.mission.now)
+            lm.hub.publish(lm.status_message())
+        self.runner.stepper.wake()
+        await self._record(lm, t, "resume", {}, changes)
 
     async def stop(self, mission_id: int) -> None:
         lm = await self.live(mission_id)
-        await self._record(lm, "stop", {}, {})
-        task = self.runner.finish(lm, "stopped")
+        with self.gate:
+            t = float(lm.mission.now)
+            task = self.runner.finish(lm, "stopped")
+        await self._record(lm, t, "stop", {}, {})
         if task is not None:
             await task
 
@@ -148,39 +204,41 @@ class MissionService:
             await self.pause(mission_id)
             return
         lm = await self.live(mission_id)
-        lm.speed = speed_value(speed)
-        lm.reanchor()
-        self.runner.wake()
-        lm.hub.publish(lm.status_message())
-        await self._record(lm, "speed", {"speed": speed}, {"speed": lm.speed})
+        with self.gate:
+            lm.speed = speed_value(speed)
+            lm.reanchor()
+            t = float(lm.mission.now)
+            lm.hub.publish(lm.status_message())
+        self.runner.stepper.wake()
+        await self._record(lm, t, "speed", {"speed": speed}, {"speed": lm.speed})
 
     async def set_policy(self, mission_id: int, policy: str) -> None:
         lm = await self.live(mission_id)
-        policy = lm.mission.set_policy(policy)
-        lm.hub.publish(lm.status_message())
-        await self.record_engine_action(lm, {"current_policy": policy})
+        with self.gate:
+            policy = lm.mission.set_policy(policy)
+            action = self.engine_action(lm)
+            lm.hub.publish(lm.status_message())
+        await self.store.record_action(lm.id, action, True, {"current_policy": policy})
 
-    async def record_engine_action(self, lm: LiveMission, changes: dict[str, Any]) -> None:
-        """Commit the command the engine just applied (its canonical, replayable form)."""
-        action = dict(lm.mission.actions[-1])
-        await self.store.record_action(lm.id, action, True, changes)
+    def engine_action(self, lm: LiveMission) -> dict[str, Any]:
+        """The command the engine just applied, in its replayable form; its events are
+        streamed now so they precede any status message (caller holds the gate)."""
+        self.runner.publish_pending(lm)
+        return dict(lm.mission.actions[-1])
 
     # -- reads -------------------------------------------------------------------------
 
-    async def detail(self, mission_id: int) -> tuple[MissionRow, LiveMission | None]:
-        """The stored row with the live mission, if any; never a half-finished pair."""
-        while True:
-            await self.settled(mission_id)
-            row = await self.row(mission_id)
-            lm = self.runner.live.get(mission_id)
-            if lm is None or not lm.finishing:
-                return row, lm
-
     async def page(
         self, status: str | None, policy: str | None, limit: int, offset: int
-    ) -> tuple[queries.Page[MissionRow], dict[int, LiveMission]]:
+    ) -> tuple[queries.Page[MissionRow], dict[int, LiveState]]:
         page = await self.store.read(queries.list_missions, status, policy, limit, offset)
-        return page, {r.id: self.runner.live[r.id] for r in page.items if r.id in self.runner.live}
+        states: dict[int, LiveState] = {}
+        with self.gate:
+            for r in page.items:
+                lm = self.runner.live.get(r.id)
+                if lm is not None and not lm.finishing:
+                    states[r.id] = live_state(lm)
+        return page, states
 
     async def fresh(self, mission_id: int) -> None:
         """Make reads of a live mission's log see everything up to now (or 404)."""
@@ -195,19 +253,38 @@ class MissionService:
     async def robots(self, mission_id: int) -> Sequence[dict[str, Any]]:
         lm = self.runner.live.get(mission_id)
         if lm is not None and not lm.finishing:
-            return list(lm.mission.robot_list())
-        row, lm = await self.detail(mission_id)
-        if lm is not None:
-            return list(lm.mission.robot_list())
+            with self.gate:
+                return list(lm.mission.robot_list())
+        row, state = await self.detail(mission_id)
+        if state is not None:
+            return await self.robots(mission_id)
         return list((row.final_state or {}).get("robots", []))
 
-    async def snapshot(self, mission_id: int) -> tuple[dict[str, Any], LiveMission | None]:
-        """The parts of a `snapshot` message; for a live mission taken without awaiting."""
+    async def watch(
+        self, mission_id: int, ws: Any, render: Callable[[MissionRow, LiveState | None], Any]
+    ) -> tuple[Hub, Viewer]:
+        """Join a viewer to a mission's stream, its first message a snapshot.
+
+        For a live mission the pending stream is flushed, the snapshot taken and the viewer
+        joined in one hold of the gate, so the viewer misses nothing and sees nothing twice.
+        """
         lm = self.runner.live.get(mission_id)
-        if lm is not None and not lm.finishing and lm.row is not None:
+        if lm is None or lm.finishing or lm.row is None:
+            row, state = await self.detail(mission_id)
+            lm = self.runner.live.get(mission_id)
+            if state is None or lm is None:
+                message = {"mission": render(row, None), "map": row.world_map}
+                return self._join(mission_id, ws, {**message, "state": row.final_state})
+            lm.row = lm.row or row
+        with self.gate:
+            self.runner.publish_pending(lm)
             m = lm.mission
-            return {"row": lm.row, "map": m.world_map(), "state": m.snapshot()}, lm
-        row, lm = await self.detail(mission_id)
-        if lm is not None:
-            return {"row": row, "map": lm.mission.world_map(), "state": lm.mission.snapshot()}, lm
-        return {"row": row, "map": row.world_map, "state": row.final_state}, None
+            message = {"mission": render(lm.row, live_state(lm)), "map": m.world_map()}
+            return self._join(mission_id, ws, {**message, "state": m.snapshot()})
+
+    def _join(self, mission_id: int, ws: Any, message: dict[str, Any]) -> tuple[Hub, Viewer]:
+        hub = self.runner.hub(mission_id)
+        if len(hub) >= self.settings.max_viewers:
+            self.runner.forget_hub(mission_id)
+            raise LimitExceeded(f"at most {self.settings.max_viewers} viewers per mission")
+        return hub, hub.join(ws, encode({"type": "snapshot", **message}))

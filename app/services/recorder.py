@@ -83,6 +83,11 @@ class Recorder:
             self._seen_auctions = len(auctions)
         return self._index.get(auction_id)
 
+    @property
+    def pending(self) -> int:
+        """Events produced but not yet collected."""
+        return len(self.mission.events) - self._events
+
     def collect(self) -> Batch:
         """Everything new since the previous call."""
         m = self.mission

@@ -17,6 +17,7 @@ from sqlalchemy.orm import Session
 
 from app.db.models import Event
 from app.db.models import Mission as MissionRow
+from app.gate import Gate
 from app.runner import LiveMission, MissionRunner
 from app.services.errors import Conflict
 from app.services.recorder import Recorder
@@ -27,12 +28,13 @@ _PAGE = 5000
 _SLICE_S = 0.005
 
 
-async def _advance_to(m: Mission, t: float) -> None:
-    """Advance in bounded slices so the loop (and other missions) keep running meanwhile."""
+async def _advance_to(gate: Gate, m: Mission, t: float) -> None:
+    """Advance in bounded slices under the gate, so live missions keep running meanwhile."""
     chunk = 1.0
     while m.now < t and not m.done:
         t0 = perf_counter()
-        m.advance(min(t, m.now + chunk))
+        with gate:
+            m.advance(min(t, m.now + chunk))
         took = perf_counter() - t0
         chunk = chunk * 2 if took < _SLICE_S / 4 else max(chunk / 2, 1e-3)
         await asyncio.sleep(0)
@@ -73,23 +75,23 @@ async def _check(store: Store, mission_id: int, m: Mission, stored: int) -> None
 
 async def revive(runner: MissionRunner, store: Store, row: MissionRow) -> LiveMission:
     """Replay `row` to its last stored simulation time and hand it to the runner (paused)."""
-    m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=row.planner)
+    gate = runner.gate
+    with gate:
+        m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=row.planner)
     try:
         for action in sorted((a for a in row.actions if a.replay), key=lambda a: a.seq):
-            await _advance_to(m, action.t)
-            m.apply({"t": action.t, "kind": action.kind, "args": action.args})
-        await _advance_to(m, row.sim_time)
+            await _advance_to(gate, m, action.t)
+            with gate:
+                m.apply({"t": action.t, "kind": action.kind, "args": action.args})
+        await _advance_to(gate, m, row.sim_time)
         stored = await store.read(stored_counts, row.id)
         await _check(store, row.id, m, stored.events)
     except BaseException:
         m.close()
         raise
-    lm = runner.add(
-        row.id,
-        m,
-        speed=row.speed,
-        paused=True,
-        recorder=Recorder(row.id, m, stored),
-    )
-    lm.row = row
+    with gate:
+        lm = runner.add(
+            row.id, m, speed=row.speed, paused=True, recorder=Recorder(row.id, m, stored)
+        )
+        lm.row = row
     return lm

@@ -1,19 +1,23 @@
-"""The one write path: every database write runs here, in order, on a single writer thread.
+"""The one write path: every database write runs here, on a single writer thread.
 
-One thread keeps SQLite free of writer contention and preserves order: an operator action
-submitted before the next event batch is committed before it. Reads go to the shared thread
-pool with their own sessions (WAL lets them run beside the writer).
+One thread keeps SQLite free of writer contention. Operator actions and status changes go
+ahead of queued event batches (`URGENT`), so an operator waits for at most the batch being
+written; that reordering is safe because a batch queued earlier only holds events from
+before the action. Reads use the shared thread pool with their own sessions (WAL lets them
+run beside the writer).
 """
 
 from __future__ import annotations
 
 import asyncio
+import itertools
+import queue
+import threading
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from typing import Any, TypeVar
 
-from sqlalchemy import func, insert, select, update
+from sqlalchemy import case, func, insert, select, update
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
@@ -23,6 +27,8 @@ from app.services.recorder import Batch, Stored
 T = TypeVar("T")
 
 LIVE_STATUSES = ("running", "paused")
+URGENT, BULK = 0, 1
+_STOP = (2, 0, None, None)
 
 
 class Store:
@@ -30,15 +36,41 @@ class Store:
 
     def __init__(self, sessions: sessionmaker[Session]) -> None:
         self._sessions = sessions
-        self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="regolith-db")
+        self._queue: queue.PriorityQueue[tuple[int, int, Any, Any]] = queue.PriorityQueue()
+        self._order = itertools.count()
+        self._thread = threading.Thread(target=self._work, name="regolith-db", daemon=True)
+        self._thread.start()
 
-    async def _write(self, fn: Callable[..., T], *args: Any) -> T:
+    def _work(self) -> None:
+        while True:
+            _, _, job, done = self._queue.get()
+            if job is None:
+                return
+            try:
+                with self._sessions.begin() as session:
+                    result = job(session)
+            except BaseException as exc:  # handed to the awaiting coroutine
+                done(None, exc)
+            else:
+                done(result, None)
+
+    async def _write(self, fn: Callable[..., T], *args: Any, priority: int = URGENT) -> T:
         loop = asyncio.get_running_loop()
-        return await loop.run_in_executor(self._writer, partial(self._in_tx, fn, *args))
+        future: asyncio.Future[T] = loop.create_future()
 
-    def _in_tx(self, fn: Callable[..., T], *args: Any) -> T:
-        with self._sessions.begin() as session:
-            return fn(session, *args)
+        def settle(result: Any, exc: BaseException | None) -> None:
+            def apply() -> None:
+                if future.done():
+                    return
+                if exc is not None:
+                    future.set_exception(exc)
+                else:
+                    future.set_result(result)
+
+            loop.call_soon_threadsafe(apply)
+
+        self._queue.put((priority, next(self._order), partial(_call, fn, args), settle))
+        return await future
 
     async def read(self, fn: Callable[..., T], *args: Any) -> T:
         """Run `fn(session, *args)` on the thread pool with a fresh read session."""
@@ -50,7 +82,9 @@ class Store:
         return await run_in_threadpool(_run)
 
     def close(self) -> None:
-        self._writer.shutdown(wait=True)
+        """Finish every queued write, then stop the writer thread."""
+        self._queue.put(_STOP)
+        self._thread.join()
 
     # -- writes ------------------------------------------------------------------------
 
@@ -64,7 +98,8 @@ class Store:
         return await self._write(_record_action, mission_id, action, replay, changes)
 
     async def write_batch(self, batch: Batch, changes: dict[str, Any] | None = None) -> None:
-        await self._write(_write_batch, batch, changes or {})
+        """A live mission's new rows; final batches (with `changes`) are urgent too."""
+        await self._write(_write_batch, batch, changes or {}, priority=URGENT if changes else BULK)
 
     async def update_mission(self, mission_id: int, changes: dict[str, Any]) -> None:
         await self._write(_update_mission, mission_id, changes)
@@ -72,6 +107,10 @@ class Store:
     async def interrupt_stale(self) -> int:
         """Missions left running by a crash cannot be live now: mark them interrupted."""
         return await self._write(_interrupt_stale)
+
+
+def _call(fn: Callable[..., T], args: tuple[Any, ...], session: Session) -> T:
+    return fn(session, *args)
 
 
 def _create_mission(session: Session, fields: dict[str, Any]) -> Mission:
@@ -111,7 +150,8 @@ def _write_batch(session: Session, batch: Batch, changes: dict[str, Any]) -> Non
         session.execute(insert(Bid), batch.bids)
     if batch.awards:
         session.execute(insert(Award), batch.awards)
-    _update_mission(session, batch.mission_id, {"sim_time": batch.sim_time, **changes})
+    latest = case((Mission.sim_time < batch.sim_time, batch.sim_time), else_=Mission.sim_time)
+    _update_mission(session, batch.mission_id, {"sim_time": latest, **changes})
 
 
 def _update_mission(session: Session, mission_id: int, changes: dict[str, Any]) -> None:

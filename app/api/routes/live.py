@@ -2,18 +2,26 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from fastapi import APIRouter, WebSocket
 
 from app.api.convert import mission_read
 from app.api.deps import get_services
-from app.live import CLOSE_POLICY, Viewer, encode, serve_viewer
+from app.db.models import Mission as MissionRow
+from app.live import CLOSE_POLICY, serve_viewer
 from app.security import token_matches
-from app.services.errors import NotFound
+from app.services.errors import LimitExceeded, NotFound
+from app.services.missions import LiveState
 
 router = APIRouter(tags=["live"])
 
 CLOSE_NOT_FOUND = 4404
 CLOSE_BUSY = 1013
+
+
+def _render(row: MissionRow, state: LiveState | None) -> dict[str, Any]:
+    return mission_read(row, state).model_dump(mode="json")
 
 
 @router.websocket("/missions/{mission_id}/live")
@@ -28,23 +36,13 @@ async def live(ws: WebSocket, mission_id: int) -> None:
             await ws.close(code=CLOSE_POLICY, reason="operator token required")
             return
     try:
-        parts, lm = await services.missions.snapshot(mission_id)
+        hub, viewer = await services.missions.watch(mission_id, ws, _render)
     except NotFound:
         await ws.close(code=CLOSE_NOT_FOUND, reason=f"mission {mission_id} not found")
         return
-    # From the snapshot to joining nothing awaits, so no event can slip in between.
-    hub = services.runner.hub(mission_id)
-    if len(hub) >= settings.max_viewers:
-        services.runner.forget_hub(mission_id)
-        await ws.close(code=CLOSE_BUSY, reason=f"at most {settings.max_viewers} viewers")
+    except LimitExceeded as exc:
+        await ws.close(code=CLOSE_BUSY, reason=exc.message)
         return
-    message = {
-        "type": "snapshot",
-        "mission": mission_read(parts["row"], lm).model_dump(mode="json"),
-        "map": parts["map"],
-        "state": parts["state"],
-    }
-    viewer: Viewer = hub.join(ws, encode(message))
     try:
         await serve_viewer(ws, hub, viewer, settings.ws_max_message)
     finally:

@@ -26,7 +26,7 @@ router = APIRouter(prefix="/missions", tags=["missions"])
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[Operator])
 async def create_mission(body: MissionCreate, missions: MissionsDep) -> MissionDetail:
     """Start a live mission (paused if `paused` or `speed` is 0)."""
-    row, lm = await missions.create(
+    row, live = await missions.create(
         policy=body.policy,
         seed=body.seed,
         speed=body.speed,
@@ -34,7 +34,7 @@ async def create_mission(body: MissionCreate, missions: MissionsDep) -> MissionD
         scenario=body.scenario,
         planner=body.planner,
     )
-    return mission_detail(row, lm, actions=[])
+    return mission_detail(row, live, actions=[])
 
 
 @router.get("", dependencies=[Viewer])
@@ -54,8 +54,8 @@ async def list_missions(
 @router.get("/{mission_id}", dependencies=[Viewer])
 async def get_mission(mission_id: MissionId, missions: MissionsDep) -> MissionDetail:
     """One mission with live (running) or final metrics in the `regolith run --json` shape."""
-    row, lm = await missions.detail(mission_id)
-    return mission_detail(row, lm)
+    row, live = await missions.detail(mission_id, metrics=True)
+    return mission_detail(row, live)
 
 
 @router.get("/{mission_id}/actions", dependencies=[Viewer])
@@ -66,8 +66,8 @@ async def list_actions(mission_id: MissionId, missions: MissionsDep) -> list[Act
 
 
 async def _current(missions: MissionsDep, mission_id: int) -> MissionRead:
-    row, lm = await missions.detail(mission_id)
-    return mission_read(row, lm)
+    row, live = await missions.current(mission_id)
+    return mission_read(row, live)
 
 
 @router.post("/{mission_id}/pause", dependencies=[Operator])
