@@ -91,8 +91,10 @@ class _Writer:
         os.fsync(self._fh.fileno())
 
 
-def check_manifest(out_dir: Path, scenario_hash: str, scenario: dict[str, Any]) -> None:
-    """Bind the directory to this scenario, or refuse if it already holds another one."""
+def check_manifest(
+    out_dir: Path, scenario_hash: str, scenario: dict[str, Any], engine: str | None = None
+) -> None:
+    """Bind the directory to this scenario and engine build, or refuse another one's."""
     path = out_dir / MANIFEST
     if path.exists():
         try:
@@ -105,6 +107,12 @@ def check_manifest(out_dir: Path, scenario_hash: str, scenario: dict[str, Any]) 
                 f"{out_dir} holds a sweep of another scenario ({existing.get('scenario_name')!r}, "
                 f"hash {found}, this one {scenario_hash}); use a new --out"
             )
+        pinned = existing.get("engine")
+        if engine is not None and pinned is not None and pinned != engine:
+            raise SweepConflict(
+                f"{out_dir} was swept with another engine build ({pinned}, this one {engine}); "
+                "results of two builds must not be mixed: use a new --out"
+            )
         return
     others = {k.scenario for k in Journal(out_dir).load()} - {scenario_hash}
     if others:
@@ -114,6 +122,7 @@ def check_manifest(out_dir: Path, scenario_hash: str, scenario: dict[str, Any]) 
         )
     manifest = {
         "scenario_hash": scenario_hash,
+        "engine": engine,
         "scenario_name": scenario.get("name"),
         "scenario": scenario,
     }

@@ -23,7 +23,7 @@ from app.experiments.bound import BoundFn, engine_bound
 from app.experiments.journal import Journal, RunKey, check_manifest, exclusive
 from app.experiments.outputs import write_outputs
 from app.experiments.spec import SweepSpec, scenario_dict
-from app.experiments.worker import RunFn, execute_run
+from app.experiments.worker import RunFn, engine_fingerprint, execute_run
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,13 @@ class SweepError(RuntimeError):
         self.failures = failures
 
 
+class EngineMismatch(RuntimeError):
+    """A worker ran another engine build than the one this sweep is pinned to."""
+
+    def __init__(self, worker: object, pinned: str) -> None:
+        super().__init__(f"worker engine build {worker} differs from this sweep's {pinned}")
+
+
 class SweepCancelled(RuntimeError):
     """`stop()` asked the sweep to end; finished runs are journaled."""
 
@@ -78,7 +85,7 @@ def local_pool(workers: int | None = None) -> ProcessPoolExecutor:
     n = workers or os.cpu_count() or 1
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx: BaseContext = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["engine", "app.experiments.worker"])
+        ctx.set_forkserver_preload(["app.experiments.worker"])  # imports the engine
     else:  # pragma: no cover - Windows
         ctx = multiprocessing.get_context("spawn")
     return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
@@ -109,7 +116,8 @@ def run_sweep(
     t0 = time.perf_counter()
     shash = spec.scenario_hash
     with exclusive(out_dir):
-        check_manifest(out_dir, shash, scenario_dict(spec.scenario))
+        engine = engine_fingerprint()
+        check_manifest(out_dir, shash, scenario_dict(spec.scenario), engine)
         journal = Journal(out_dir)
         done = journal.load()
         wanted = [RunKey(p.name, s, shash) for p in spec.policies for s in spec.seeds]
@@ -125,6 +133,7 @@ def run_sweep(
             clean = False
             try:
                 ran = _drive(
+                    engine,
                     spec,
                     pending,
                     done,
@@ -150,6 +159,7 @@ def run_sweep(
 
 
 def _drive(
+    engine: str,
     spec: SweepSpec,
     pending: list[RunKey],
     done: dict[RunKey, dict[str, Any]],
@@ -188,6 +198,9 @@ def _drive(
                         out = fut.result()
                     except Exception as exc:  # a run that raised is reported, not journaled
                         failures.append((key, exc))
+                        continue
+                    if out.get("engine") != engine:
+                        failures.append((key, EngineMismatch(out.get("engine"), engine)))
                         continue
                     record = {"policy": key.policy, "seed": key.seed, "scenario": key.scenario}
                     record.update(_jsonable(out))

@@ -137,3 +137,23 @@ def test_default_process_pool_with_injected_run(tmp_path: Path) -> None:
     assert result.ran == 8
     pids = {r["pid"] for r in journal_lines(tmp_path)}
     assert len(pids) >= 1 and all(p != 0 for p in pids)
+
+
+def test_another_engine_build_in_the_same_dir_is_refused(spec: SweepSpec, tmp_path: Path) -> None:
+    sweep(spec, tmp_path, Counting(), outputs=False)
+    manifest = json.loads((tmp_path / "sweep.json").read_text())
+    manifest["engine"] = "0123456789ab"
+    (tmp_path / "sweep.json").write_text(json.dumps(manifest))
+    with pytest.raises(SweepConflict, match="another engine build"):
+        sweep(spec, tmp_path, Counting(), outputs=False)
+
+
+def test_a_worker_with_another_engine_build_is_not_journaled(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import app.experiments.runner as runner
+
+    monkeypatch.setattr(runner, "engine_fingerprint", lambda: "pinned-build")
+    with pytest.raises(SweepError, match="differs from this sweep's pinned-build"):
+        sweep(fake_spec("1", "0-1"), tmp_path, Counting(), outputs=False)
+    assert (tmp_path / JOURNAL).read_text() == ""
