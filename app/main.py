@@ -16,7 +16,7 @@ from app.api import errors
 from app.api.deps import Services
 from app.api.routes import api_router
 from app.db.migrate import upgrade
-from app.db.session import make_engine, make_sessionmaker
+from app.db.session import is_sqlite_file, make_engine, make_sessionmaker
 from app.middleware import LimitBodyMiddleware, SecurityHeadersMiddleware
 from app.runner import MissionRunner
 from app.security import resolve_token
@@ -37,10 +37,11 @@ def _lifespan(settings: Settings):  # type: ignore[no-untyped-def]
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         async with AsyncExitStack() as stack:
             token = resolve_token(settings)
-            engine = make_engine(settings.database_url)
+            engine = make_engine(settings.database_url, autocheckpoint=False)
             stack.callback(engine.dispose)
             await run_in_threadpool(upgrade, engine, settings.migrations_dir)
-            store = Store(make_sessionmaker(engine))
+            checkpoints = 1.0 if is_sqlite_file(engine) else None
+            store = Store(make_sessionmaker(engine), checkpoint_every_s=checkpoints)
             stack.callback(store.close)
             stale = await store.interrupt_stale()
             if stale:

@@ -20,6 +20,7 @@ from typing import Any
 
 from app.db.models import utcnow
 from app.gate import Gate
+from app.heap import Heap
 from app.live import Hub
 from app.services.recorder import Recorder
 from app.services.store import Store
@@ -33,7 +34,7 @@ log = logging.getLogger("regolith.runner")
 QUIET_KINDS = frozenset({"message", "bid"})
 #: Events per batch; a mission this far ahead of a batch still being written waits for it,
 #: so "max" speed never outruns the database and an operator waits behind little.
-BATCH_EVENTS = 1000
+BATCH_EVENTS = 500
 TICK_S = 0.01
 
 
@@ -119,12 +120,14 @@ class MissionRunner:
             settings.slice_ms / 1000,
             settings.max_lag_s,
         )
+        self.heap = Heap()
         self._tasks: list[asyncio.Task[None]] = []
         self._pending: set[asyncio.Task[Any]] = set()
 
     # -- lifecycle ---------------------------------------------------------------------
 
     async def start(self) -> None:
+        self.heap.start()
         self.stepper.start()
         self._tasks = [
             asyncio.create_task(self._tick_forever(), name="regolith-tick"),
@@ -148,6 +151,7 @@ class MissionRunner:
         for lm in self.live.values():
             lm.mission.close()
         self.live.clear()
+        self.heap.stop()
 
     async def drain(self) -> None:
         while self._pending:
@@ -321,6 +325,7 @@ class MissionRunner:
         while True:
             await asyncio.sleep(TICK_S)
             self._maintain()
+            self.heap.tick(busy=any(lm.runnable for lm in self.live.values()))
 
     async def _frames_forever(self) -> None:
         period = 1.0 / self.settings.frame_hz

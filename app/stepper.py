@@ -2,8 +2,10 @@
 
 Each `advance` covers an adaptive span of simulated time sized to take about
 `slice_ms` of wall time, and happens under the engine gate; between two of them the event
-loop can take the gate for commands, frames and fan-out. A mission at a finite speed follows
-the wall clock from its last anchor; at "max" it runs whenever the database keeps up.
+loop can take the gate for commands, frames and fan-out. While an operator request is in
+flight the stepper stays off the GIL (up to 100 ms at a time), so control calls are served
+at once even at "max" speed. A mission at a finite speed follows the wall clock from its
+last anchor; at "max" it runs whenever the database keeps up.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import logging
 import math
 import threading
+import time
 from collections.abc import Callable, Iterable
 from time import perf_counter
 from typing import TYPE_CHECKING
@@ -22,6 +25,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("regolith.stepper")
 _MIN_CHUNK, _MAX_CHUNK = 1e-3, 600.0
+_MAX_YIELD_S = 0.1  # a stream of requests slows missions down but never stops them
 
 
 class Stepper:
@@ -40,6 +44,7 @@ class Stepper:
         self._max_lag = max_lag_s
         self._wake = threading.Event()
         self._stop = threading.Event()
+        self.operators = 0  # operator requests in flight (changed on the loop thread only)
         self._thread = threading.Thread(target=self._run, name="regolith-step", daemon=True)
 
     def start(self) -> None:
@@ -54,10 +59,17 @@ class Stepper:
         """A mission became runnable (created, resumed, sped up): stop idling."""
         self._wake.set()
 
+    def _yield_to_operators(self) -> None:
+        """Operator requests go first: stay off the GIL while one is in flight (bounded)."""
+        deadline = perf_counter() + _MAX_YIELD_S
+        while self.operators > 0 and perf_counter() < deadline and not self._stop.is_set():
+            time.sleep(0.0005)
+
     def _run(self) -> None:
         while not self._stop.is_set():
             behind = False
             for lm in [lm for lm in self._missions() if lm.runnable]:
+                self._yield_to_operators()
                 with self._gate.stepping():
                     if not lm.runnable:  # changed while we waited for the gate
                         continue

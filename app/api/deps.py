@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -73,8 +74,16 @@ def check_token(credentials: HTTPAuthorizationCredentials | None, expected: str)
         raise HTTPException(status.HTTP_403_FORBIDDEN, "operator token is wrong")
 
 
-async def require_operator(request: Request, credentials: Credentials) -> None:
-    check_token(credentials, get_services(request).token)
+async def require_operator(request: Request, credentials: Credentials) -> AsyncIterator[None]:
+    """The operator token; while the request runs the simulation yields the CPU to it."""
+    services = get_services(request)
+    check_token(credentials, services.token)
+    stepper = services.runner.stepper
+    stepper.operators += 1
+    try:
+        yield
+    finally:
+        stepper.operators -= 1
 
 
 async def require_viewer(request: Request, credentials: Credentials) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -10,24 +11,35 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session, sessionmaker
 
 
-def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
+def _sqlite_pragmas(dbapi_conn: Any, _record: Any, autocheckpoint: bool) -> None:
     cur = dbapi_conn.cursor()
     cur.execute("PRAGMA journal_mode=WAL")
     cur.execute("PRAGMA synchronous=NORMAL")
     cur.execute("PRAGMA foreign_keys=ON")
     cur.execute("PRAGMA busy_timeout=10000")
+    if not autocheckpoint:  # the server checkpoints from its own thread (see Store)
+        cur.execute("PRAGMA wal_autocheckpoint=0")
     cur.close()
 
 
-def make_engine(url: str) -> Engine:
-    """An engine for any SQLAlchemy URL; a file SQLite database gets its folder created."""
+def is_sqlite_file(engine: Engine) -> bool:
+    url = engine.url
+    return url.get_backend_name() == "sqlite" and url.database not in (None, "", ":memory:")
+
+
+def make_engine(url: str, autocheckpoint: bool = True) -> Engine:
+    """An engine for any SQLAlchemy URL; a file SQLite database gets its folder created.
+
+    `autocheckpoint=False` keeps SQLite from copying the WAL back (with an fsync) inside a
+    commit; the caller must then checkpoint itself.
+    """
     parsed = make_url(url)
     if parsed.get_backend_name() != "sqlite":
         return create_engine(url, pool_pre_ping=True)
     if parsed.database and parsed.database != ":memory:":
         Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
     engine = create_engine(url, connect_args={"check_same_thread": False})
-    event.listen(engine, "connect", _sqlite_pragmas)
+    event.listen(engine, "connect", partial(_sqlite_pragmas, autocheckpoint=autocheckpoint))
     return engine
 
 

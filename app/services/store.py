@@ -1,23 +1,27 @@
 """The one write path: every database write runs here, on a single writer thread.
 
 One thread keeps SQLite free of writer contention. Operator actions and status changes go
-ahead of queued event batches (`URGENT`), so an operator waits for at most the batch being
-written; that reordering is safe because a batch queued earlier only holds events from
-before the action. Reads use the shared thread pool with their own sessions (WAL lets them
-run beside the writer).
+ahead of queued event batches (`URGENT`), and batches are written in transactions of at
+most `CHUNK_ROWS` events, so an operator waits for at most one small transaction; that
+reordering is safe because a batch queued earlier only holds events from before the action.
+For a SQLite file the WAL is checkpointed by a separate thread, never inside a commit.
+Reads use the shared thread pool with their own sessions (WAL lets them run beside the
+writer).
 """
 
 from __future__ import annotations
 
 import asyncio
 import itertools
+import logging
 import queue
 import threading
 from collections.abc import Callable
+from dataclasses import replace
 from functools import partial
 from typing import Any, TypeVar
 
-from sqlalchemy import case, func, insert, select, update
+from sqlalchemy import case, func, select, update
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
@@ -26,20 +30,47 @@ from app.services.recorder import Batch, Stored
 
 T = TypeVar("T")
 
+log = logging.getLogger("regolith.store")
+
 LIVE_STATUSES = ("running", "paused")
 URGENT, BULK = 0, 1
+CHUNK_ROWS = 100
 _STOP = (2, 0, None, None)
 
 
 class Store:
     """Async facade over a sessionmaker; writes are serialized on one thread."""
 
-    def __init__(self, sessions: sessionmaker[Session]) -> None:
+    def __init__(
+        self, sessions: sessionmaker[Session], checkpoint_every_s: float | None = None
+    ) -> None:
         self._sessions = sessions
         self._queue: queue.PriorityQueue[tuple[int, int, Any, Any]] = queue.PriorityQueue()
         self._order = itertools.count()
         self._thread = threading.Thread(target=self._work, name="regolith-db", daemon=True)
         self._thread.start()
+        self._stop = threading.Event()
+        self._checkpointer: threading.Thread | None = None
+        if checkpoint_every_s is not None:
+            self._checkpointer = threading.Thread(
+                target=self._checkpoint_forever,
+                args=(checkpoint_every_s,),
+                name="regolith-checkpoint",
+                daemon=True,
+            )
+            self._checkpointer.start()
+
+    def _checkpoint(self, mode: str) -> None:
+        engine = self._sessions.kw["bind"]
+        try:
+            with engine.connect() as conn:
+                conn.exec_driver_sql(f"PRAGMA wal_checkpoint({mode})")
+        except Exception:  # a busy database is checkpointed next time
+            log.warning("WAL checkpoint failed", exc_info=True)
+
+    def _checkpoint_forever(self, every_s: float) -> None:
+        while not self._stop.wait(every_s):
+            self._checkpoint("PASSIVE")
 
     def _work(self) -> None:
         while True:
@@ -55,6 +86,10 @@ class Store:
                 done(result, None)
 
     async def _write(self, fn: Callable[..., T], *args: Any, priority: int = URGENT) -> T:
+        return await self._submit(fn, *args, priority=priority)
+
+    def _submit(self, fn: Callable[..., T], *args: Any, priority: int) -> asyncio.Future[T]:
+        """Queue `fn(session, *args)` for the writer; the future settles on the loop."""
         loop = asyncio.get_running_loop()
         future: asyncio.Future[T] = loop.create_future()
 
@@ -70,7 +105,7 @@ class Store:
             loop.call_soon_threadsafe(apply)
 
         self._queue.put((priority, next(self._order), partial(_call, fn, args), settle))
-        return await future
+        return future
 
     async def read(self, fn: Callable[..., T], *args: Any) -> T:
         """Run `fn(session, *args)` on the thread pool with a fresh read session."""
@@ -82,9 +117,13 @@ class Store:
         return await run_in_threadpool(_run)
 
     def close(self) -> None:
-        """Finish every queued write, then stop the writer thread."""
+        """Finish every queued write, then stop the writer (and checkpoint everything)."""
         self._queue.put(_STOP)
         self._thread.join()
+        if self._checkpointer is not None:
+            self._stop.set()
+            self._checkpointer.join()
+            self._checkpoint("TRUNCATE")
 
     # -- writes ------------------------------------------------------------------------
 
@@ -98,8 +137,18 @@ class Store:
         return await self._write(_record_action, mission_id, action, replay, changes)
 
     async def write_batch(self, batch: Batch, changes: dict[str, Any] | None = None) -> None:
-        """A live mission's new rows; final batches (with `changes`) are urgent too."""
-        await self._write(_write_batch, batch, changes or {}, priority=URGENT if changes else BULK)
+        """A live mission's new rows, in small transactions queued back to back (in order);
+        a final batch (with `changes`) is urgent."""
+        priority = URGENT if changes else BULK
+        events = batch.events
+        parts = [
+            self._submit(_insert_events, events[i : i + CHUNK_ROWS], priority=priority)
+            for i in range(0, len(events) - CHUNK_ROWS, CHUNK_ROWS)
+        ]
+        rest = replace(batch, events=events[len(parts) * CHUNK_ROWS :])
+        parts.append(self._submit(_write_batch, rest, changes or {}, priority=priority))
+        for part in parts:
+            await part
 
     async def update_mission(self, mission_id: int, changes: dict[str, Any]) -> None:
         await self._write(_update_mission, mission_id, changes)
@@ -139,17 +188,22 @@ def _record_action(
     return row
 
 
+def _insert_events(session: Session, rows: list[dict[str, Any]]) -> None:
+    session.execute(Event.__table__.insert(), rows)
+
+
 def _write_batch(session: Session, batch: Batch, changes: dict[str, Any]) -> None:
+    # Core inserts (plain executemany): a third cheaper than ORM bulk inserts.
     if batch.events:
-        session.execute(insert(Event), batch.events)
+        session.execute(Event.__table__.insert(), batch.events)
     if batch.new_auctions:
-        session.execute(insert(Auction), batch.new_auctions)
+        session.execute(Auction.__table__.insert(), batch.new_auctions)
     if batch.changed_auctions:
         session.execute(update(Auction), batch.changed_auctions)
     if batch.bids:
-        session.execute(insert(Bid), batch.bids)
+        session.execute(Bid.__table__.insert(), batch.bids)
     if batch.awards:
-        session.execute(insert(Award), batch.awards)
+        session.execute(Award.__table__.insert(), batch.awards)
     latest = case((Mission.sim_time < batch.sim_time, batch.sim_time), else_=Mission.sim_time)
     _update_mission(session, batch.mission_id, {"sim_time": latest, **changes})
 
