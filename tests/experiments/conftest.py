@@ -1,18 +1,11 @@
-"""Shared pieces for the experiment tests: a spec over the fake engine."""
+"""Fixtures for the experiment tests."""
 
 from __future__ import annotations
 
 import pytest
-from exp_fakes import POLICIES, resolve
 
-from app.experiments.spec import SweepSpec, make_spec, parse_policies, parse_seeds
-from engine.scenario import reference_scenario
-
-
-def fake_spec(policies: str = "1,2,3", seeds: str = "0-5") -> SweepSpec:
-    return make_spec(
-        parse_policies(policies, resolve, POLICIES), parse_seeds(seeds), reference_scenario()
-    )
+from app.experiments.spec import SweepSpec
+from tests.experiments.exp_fakes import fake_spec
 
 
 @pytest.fixture

@@ -9,6 +9,9 @@ import math
 import random
 from typing import Any
 
+from app.experiments.spec import SweepSpec, make_spec, parse_policies, parse_seeds
+from engine import reference_scenario
+
 POLICIES = {1: "fcfs", 2: "coalition", 3: "nearest"}
 
 
@@ -53,3 +56,10 @@ def failing_run(scenario: Any, seed: int, policy: str) -> dict[str, Any]:
     if seed == 3:
         raise RuntimeError("engine exploded")
     return fake_run(scenario, seed, policy)
+
+
+def fake_spec(policies: str = "1,2,3", seeds: str = "0-5") -> SweepSpec:
+    """A sweep spec over the fake policies on the reference scenario."""
+    return make_spec(
+        parse_policies(policies, resolve, POLICIES), parse_seeds(seeds), reference_scenario()
+    )

@@ -10,13 +10,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import fake_spec
-from exp_fakes import failing_run, fake_run
 
 from app.experiments.journal import JOURNAL, SweepConflict
 from app.experiments.runner import Progress, SweepCancelled, SweepError, run_sweep
 from app.experiments.spec import SweepSpec, make_spec
-from engine.scenario import reference_scenario
+from engine import reference_scenario
+from tests.experiments.exp_fakes import failing_run, fake_run, fake_spec
 
 
 class Counting:

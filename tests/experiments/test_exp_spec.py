@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pytest
-from exp_fakes import POLICIES, resolve
 
 from app.experiments.report import seed_ranges
 from app.experiments.spec import (
@@ -14,7 +13,8 @@ from app.experiments.spec import (
     parse_seeds,
     scenario_hash,
 )
-from engine.scenario import reference_scenario
+from engine import reference_scenario
+from tests.experiments.exp_fakes import POLICIES, resolve
 
 
 @pytest.mark.parametrize(
