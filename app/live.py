@@ -30,11 +30,25 @@ def encode(message: dict[str, Any]) -> str:
     return json.dumps(message, separators=(",", ":"), allow_nan=False)
 
 
+class FanoutStats:
+    """Server-side figures for /api/metrics: frame age when handed to the socket, drops."""
+
+    def __init__(self) -> None:
+        self.frame_delays: deque[float] = deque(maxlen=5000)
+        self.frames_sent = 0
+        self.frames_dropped = 0
+        self.viewers_dropped = 0
+
+
+STATS = FanoutStats()
+
+
 class Viewer:
     """One connected client: an ordered bounded queue plus a latest-frame slot."""
 
     def __init__(self, ws: WebSocket, max_queue: int) -> None:
         self.ws = ws
+        self.frame_at = 0.0
         self.max_queue = max_queue
         self.queue: deque[str] = deque()
         self.frame: str | None = None
@@ -60,7 +74,9 @@ class Viewer:
         """Replace any unsent frame with the newest one."""
         if self.frame is not None:
             self.frames_dropped += 1
+            STATS.frames_dropped += 1
         self.frame = text
+        self.frame_at = time.perf_counter()
         self._wake.set()
 
     async def pump(self) -> None:
@@ -74,8 +90,10 @@ class Viewer:
                 return
             if self.frame is not None:
                 text, self.frame = self.frame, None
+                STATS.frame_delays.append(time.perf_counter() - self.frame_at)
                 await self.ws.send_text(text)
                 self.frames_sent += 1
+                STATS.frames_sent += 1
 
 
 class Hub:
@@ -151,6 +169,7 @@ async def serve_viewer(ws: WebSocket, hub: Hub, viewer: Viewer, max_message: int
             code = reader.result()
         elif gone in done or (pump in done and not pump.cancelled() and not pump.exception()):
             code = CLOSE_TOO_SLOW
+            STATS.viewers_dropped += 1
             log.info("dropped a websocket viewer that fell %d messages behind", hub.max_queue)
     finally:
         hub.leave(viewer)

@@ -18,6 +18,7 @@ from app.api.routes import api_router
 from app.db.migrate import upgrade
 from app.db.session import is_sqlite_file, make_engine, make_sessionmaker
 from app.middleware import LimitBodyMiddleware, SecurityHeadersMiddleware
+from app.ratelimit import RateLimiter
 from app.runner import MissionRunner
 from app.security import resolve_token
 from app.services.commands import RobotCommands
@@ -57,6 +58,7 @@ def _lifespan(settings: Settings):  # type: ignore[no-untyped-def]
                 missions=missions,
                 commands=RobotCommands(missions),
                 token=token,
+                limiter=RateLimiter(settings.rate_limit_per_s, settings.rate_limit_burst),
             )
             yield
 

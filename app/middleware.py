@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from starlette.datastructures import MutableHeaders
+from starlette.exceptions import HTTPException
 from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -60,8 +61,8 @@ class LimitBodyMiddleware:
             message = await receive()
             if message["type"] == "http.request":
                 seen += len(message.get("body", b""))
-                if seen > self.max_bytes:
-                    raise ValueError("request body too large")
+                if seen > self.max_bytes:  # a chunked body without Content-Length
+                    raise HTTPException(413, "request body too large")
             return message
 
         await self.app(scope, counted, send)

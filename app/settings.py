@@ -38,6 +38,9 @@ class Settings(BaseSettings):
     viewer_queue: Annotated[int, Field(ge=16, le=1_000_000)] = 2000
     ws_max_message: Annotated[int, Field(ge=64, le=1_048_576)] = 4096
 
+    rate_limit_per_s: Annotated[float, Field(ge=0, le=100_000)] = 20.0
+    rate_limit_burst: Annotated[int, Field(ge=1, le=100_000)] = 60
+
     cors_origins: list[str] = Field(default_factory=list)
     frontend_dir: Path = Field(default_factory=lambda: _beside_repo("frontend"))
     migrations_dir: Path = Field(default_factory=lambda: _beside_repo("migrations"))

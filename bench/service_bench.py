@@ -53,6 +53,7 @@ def free_port() -> int:
 
 def start_server(data_dir: Path, port: int) -> subprocess.Popen[bytes]:
     env = {**os.environ, "REGOLITH_TOKEN": TOKEN, "REGOLITH_MAX_VIEWERS": "1000"}
+    env["REGOLITH_RATE_LIMIT_PER_S"] = "0"  # the control phase is a deliberate burst
     cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
     cmd += ["--port", str(port), "--data-dir", str(data_dir), "--log-level", "warning"]
     proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)

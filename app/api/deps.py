@@ -10,6 +10,7 @@ from fastapi import Depends, HTTPException, Path, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.requests import HTTPConnection
 
+from app.ratelimit import RateLimiter
 from app.runner import MissionRunner
 from app.security import token_matches
 from app.services.commands import RobotCommands
@@ -28,6 +29,7 @@ class Services:
     missions: MissionService
     commands: RobotCommands
     token: str
+    limiter: RateLimiter
 
 
 def get_services(conn: HTTPConnection) -> Services:
@@ -77,6 +79,13 @@ def check_token(credentials: HTTPAuthorizationCredentials | None, expected: str)
 async def require_operator(request: Request, credentials: Credentials) -> AsyncIterator[None]:
     """The operator token; while the request runs the simulation yields the CPU to it."""
     services = get_services(request)
+    wait = services.limiter.allow(request.client.host if request.client else "?")
+    if wait > 0:
+        raise HTTPException(
+            status.HTTP_429_TOO_MANY_REQUESTS,
+            f"too many operator requests; retry in {wait:.1f} s",
+            headers={"Retry-After": str(max(1, round(wait)))},
+        )
     check_token(credentials, services.token)
     stepper = services.runner.stepper
     stepper.operators += 1

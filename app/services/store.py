@@ -19,6 +19,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
+from time import perf_counter
 from typing import Any, TypeVar
 
 from sqlalchemy import case, func, select, update
@@ -47,6 +48,8 @@ class Store:
         self._sessions = sessions
         self._queue: queue.PriorityQueue[tuple[int, int, Any, Any]] = queue.PriorityQueue()
         self._order = itertools.count()
+        self.writes = self.failures = 0
+        self.write_seconds = self.write_max = 0.0
         self._thread = threading.Thread(target=self._work, name="regolith-db", daemon=True)
         self._thread.start()
         self._stop = threading.Event()
@@ -77,13 +80,24 @@ class Store:
             _, _, job, done = self._queue.get()
             if job is None:
                 return
+            start = perf_counter()
             try:
                 with self._sessions.begin() as session:
                     result = job(session)
             except BaseException as exc:  # handed to the awaiting coroutine
+                self.failures += 1
                 done(None, exc)
             else:
                 done(result, None)
+            took = perf_counter() - start
+            self.writes += 1
+            self.write_seconds += took
+            self.write_max = max(self.write_max, took)
+
+    @property
+    def queued(self) -> int:
+        """Writes waiting for the writer thread."""
+        return self._queue.qsize()
 
     async def _write(self, fn: Callable[..., T], *args: Any, priority: int = URGENT) -> T:
         return await self._submit(fn, *args, priority=priority)

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from fastapi import APIRouter
+from fastapi.responses import PlainTextResponse
 
-from app.api.deps import ServicesDep
+from app.api.deps import ServicesDep, Viewer
 from app.api.schemas import Health
+from app.metrics import render
 
 router = APIRouter(tags=["health"])
 
@@ -18,3 +20,11 @@ async def health(services: ServicesDep) -> Health:
     return Health(
         status="ok", version="0.1.0", missions_live=runner.running_count(), viewers=viewers
     )
+
+
+@router.get("/metrics", response_class=PlainTextResponse, dependencies=[Viewer])
+async def metrics(services: ServicesDep) -> PlainTextResponse:
+    """Prometheus text format: live missions, speeds, viewers, frame delay, DB writes."""
+    with services.runner.gate:
+        text = render(services.runner, services.store)
+    return PlainTextResponse(text, media_type="text/plain; version=0.0.4")

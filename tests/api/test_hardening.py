@@ -1,0 +1,81 @@
+"""Limits and guards: rate limiting, body size, CORS, security headers, metrics."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.api.conftest import LiveServer, make_settings
+
+
+@pytest.fixture
+def strict(tmp_path: Path) -> Iterator[LiveServer]:
+    settings = make_settings(
+        tmp_path,
+        rate_limit_per_s=1,
+        rate_limit_burst=3,
+        max_running_missions=1,
+        cors_origins=["https://ops.example"],
+    )
+    server = LiveServer(settings).start()
+    yield server
+    server.stop()
+
+
+def test_mutating_calls_are_rate_limited_per_client(strict: LiveServer) -> None:
+    with strict.client() as api:
+        codes = [api.post("/api/missions/1/pause").status_code for _ in range(5)]
+        assert codes[:3] == [404, 404, 404] and codes[3:] == [429, 429]
+        r = api.post("/api/missions/1/pause")
+        assert "retry" in r.json()["detail"] and int(r.headers["retry-after"]) >= 1
+        assert api.get("/api/missions").status_code == 200  # reads are not limited
+
+
+def test_live_mission_limit_is_429(strict: LiveServer) -> None:
+    with strict.client() as api:
+        assert api.post("/api/missions", json={"paused": True}).status_code == 201
+        r = api.post("/api/missions", json={"paused": True})
+        assert r.status_code == 429 and "already live" in r.json()["detail"]
+
+
+def test_oversize_body_is_413(server: LiveServer) -> None:
+    with server.client() as api:
+        r = api.post("/api/missions", content=b"{" + b" " * 2_000_000 + b"}")
+        assert r.status_code == 413
+
+        def chunks() -> Iterator[bytes]:
+            yield b'{"seed": 1, "x": "'
+            for _ in range(300):
+                yield b"a" * 4096
+            yield b'"}'
+
+        headers = {"content-type": "application/json"}
+        assert api.post("/api/missions", content=chunks(), headers=headers).status_code == 413
+
+
+def test_cors_only_for_configured_origins(strict: LiveServer) -> None:
+    with strict.client(token=False) as anon:
+        ok = anon.get("/api/health", headers={"Origin": "https://ops.example"})
+        assert ok.headers["access-control-allow-origin"] == "https://ops.example"
+        other = anon.get("/api/health", headers={"Origin": "https://evil.example"})
+        assert "access-control-allow-origin" not in other.headers
+
+
+def test_no_cors_by_default_and_security_headers(server: LiveServer) -> None:
+    with server.client(token=False) as anon:
+        r = anon.get("/api/health", headers={"Origin": "https://evil.example"})
+        assert "access-control-allow-origin" not in r.headers
+        assert r.headers["x-frame-options"] == "DENY"
+        assert "default-src 'self'" in r.headers["content-security-policy"]
+
+
+def test_metrics_in_prometheus_format(server: LiveServer) -> None:
+    with server.client() as api:
+        api.post("/api/missions", json={"paused": True, "planner": "straight"})
+        text = api.get("/api/metrics").text
+    assert "# TYPE regolith_missions_live gauge" in text
+    assert 'regolith_missions_live{status="paused"} 1' in text
+    assert 'regolith_mission_speed{mission="1"} 1.0' in text
+    assert "regolith_db_writes_total" in text and "regolith_frame_delay_seconds" in text
