@@ -55,19 +55,36 @@ class EmbeddedBus:
         if isinstance(msg, Heartbeat):
             self._publish_heartbeat(msg)
             return
-        receivers = [h for n, h in self._subscribers.items() if n != msg.sender]
         if self._ideal:
             ev = self._env.timeout(0.0)
-            ev.callbacks.append(lambda _e: _deliver_all(receivers, msg))
+            ev.callbacks.append(lambda _e: self._deliver_ideal(msg))
             return
-        cfg, rng = self._cfg, self._rng
-        for handler in receivers:
+        cfg, rng, board = self._cfg, self._rng, self._liveness
+        for name, handler in list(self._subscribers.items()):
+            if name == msg.sender:
+                continue
             if cfg.loss > 0.0 and rng.random() < cfg.loss:
                 self.lost += 1
                 continue
             delay = cfg.latency_s + (cfg.jitter_s * rng.random() if cfg.jitter_s else 0.0)
             ev = self._env.timeout(delay)
-            ev.callbacks.append(lambda _e, h=handler: h(msg))
+            ev.callbacks.append(
+                lambda _e, n=name, h=handler: _deliver_one(board, n, h, msg, float(_e.env.now))
+            )
+
+    def _deliver_ideal(self, msg: Message) -> None:
+        """Everyone hears it at once. Everyone learns the sender is alive (one column write);
+        a message only one robot acts on is handed to that robot alone (others would ignore it)."""
+        self._liveness.heard_everywhere(msg.sender, float(self._env.now))
+        to = msg.addressee()
+        if to is not None:
+            handler = self._subscribers.get(to)
+            if handler is not None and to != msg.sender:
+                handler(msg)
+            return
+        for name, handler in list(self._subscribers.items()):
+            if name != msg.sender:
+                handler(msg)
 
     def _publish_heartbeat(self, hb: Heartbeat) -> None:
         board, cfg = self._liveness, self._cfg
@@ -92,6 +109,6 @@ class EmbeddedBus:
         )
 
 
-def _deliver_all(receivers: list[Handler], msg: Message) -> None:
-    for h in receivers:
-        h(msg)
+def _deliver_one(board: Liveness, name: str, handler: Handler, msg: Message, t: float) -> None:
+    board.heard_from(name, msg.sender, t)
+    handler(msg)

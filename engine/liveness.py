@@ -70,6 +70,11 @@ class Liveness:
         self.heard[receivers, s] = t
         self.hb_seen[receivers, s] = np.maximum(self.hb_seen[receivers, s], serial)
 
+    def heard_everywhere(self, sender: str, t: float) -> None:
+        s = self.index.get(sender)
+        if s is not None:
+            self.heard[: len(self.names), s] = t
+
     def heard_from(self, receiver: str, sender: str, t: float) -> None:
         r, s = self.index.get(receiver), self.index.get(sender)
         if r is not None and s is not None:

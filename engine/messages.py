@@ -16,6 +16,10 @@ class Message(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
     sender: Name
 
+    def addressee(self) -> str | None:
+        """The one robot that acts on this message, if only one does (all others ignore it)."""
+        return None
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields plus `type`; a -inf utility becomes None (JSON has no infinity)."""
         d = dict(self.__dict__)
@@ -47,6 +51,9 @@ class Bid(Message):
     utility: float
     round: int
 
+    def addressee(self) -> str | None:
+        return self.auctioneer
+
     def to_dict(self) -> dict[str, Any]:
         d = super().to_dict()
         if not math.isfinite(self.utility):
@@ -64,6 +71,9 @@ class Award(Message):
     winner: Name
     status: Literal["open"] = "open"
 
+    def addressee(self) -> str | None:
+        return self.winner
+
 
 class Ack(Message):
     """[auctioneer, winner, task_location, accepted|declined]."""
@@ -73,6 +83,9 @@ class Ack(Message):
     winner: Name
     location: Location
     accepted: bool
+
+    def addressee(self) -> str | None:
+        return self.auctioneer
 
 
 class Close(Message):
@@ -124,12 +137,18 @@ class Probe(Message):
 
     target: Name
 
+    def addressee(self) -> str | None:
+        return self.target
+
 
 class Revoke(Message):
     """The auctioneer takes a task back from a robot: its earlier holder turned out alive."""
 
     task_id: str
     robot: Name
+
+    def addressee(self) -> str | None:
+        return self.robot
 
 
 class Takeover(Message):

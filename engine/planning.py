@@ -9,16 +9,14 @@ queries are cached per run.
 
 from __future__ import annotations
 
-import math
 import time
-from collections import defaultdict
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
 
-from engine.geometry import Point, path_length, segment_point_distance
-from engine.world import CLEARANCE, World
+from engine.geometry import Point, path_length
+from engine.world import World
 
 Path = tuple[Point, ...]
 
@@ -59,36 +57,6 @@ class StraightLinePlanner:
         pass
 
 
-class CraterIndex:
-    """Craters bucketed on a coarse grid, so segment tests look only at nearby craters."""
-
-    def __init__(self, world: World, bucket: float = 20.0) -> None:
-        self.bucket = bucket
-        self.buckets: dict[tuple[int, int], list[tuple[float, float, float]]] = defaultdict(list)
-        for c in world.craters:
-            r = c.r + CLEARANCE
-            for bx in range(int((c.x - r) // bucket), int((c.x + r) // bucket) + 1):
-                for by in range(int((c.y - r) // bucket), int((c.y + r) // bucket) + 1):
-                    self.buckets[(bx, by)].append((c.x, c.y, r))
-
-    def _near(self, x0: float, y0: float, x1: float, y1: float) -> set[tuple[float, float, float]]:
-        b = self.bucket
-        out: set[tuple[float, float, float]] = set()
-        for bx in range(int(min(x0, x1) // b), int(max(x0, x1) // b) + 1):
-            for by in range(int(min(y0, y1) // b), int(max(y0, y1) // b) + 1):
-                out.update(self.buckets.get((bx, by), ()))
-        return out
-
-    def point_free(self, x: float, y: float) -> bool:
-        return all(math.hypot(x - cx, y - cy) > r for cx, cy, r in self._near(x, y, x, y))
-
-    def segment_free(self, a: Point, b: Point) -> bool:
-        return all(
-            segment_point_distance(a, b, (cx, cy)) > r
-            for cx, cy, r in self._near(a[0], a[1], b[0], b[1])
-        )
-
-
 class OmplPlanner:
     """RRT-Connect over the world's craters, with an exact segment-vs-circle motion check."""
 
@@ -101,7 +69,7 @@ class OmplPlanner:
         self.stats = PlannerStats()
         self._rng = rng
         self._time_limit = time_limit
-        self._index = CraterIndex(world)
+        self._index = world.index
         self._cache: dict[tuple[Point, Point], Path] = {}
         self._ou = ou
         index = self._index

@@ -26,7 +26,6 @@ class OpenAuction:
     location: Location
     task_id: str
     opened_at: float
-    round: int
     search_path: tuple[Location, ...] = ()
 
     @property
@@ -48,7 +47,7 @@ class Policy:
     def bid_targets(
         self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
     ) -> list[OpenAuction]:
-        """The auctions (capable ones, any order) this robot bids in now.
+        """Of the open auctions the robot can serve, given in opening order, those it bids in now.
 
         `in_coalition` is true for a hauler that is paired with a live excavator under a
         coalition policy.
@@ -72,7 +71,8 @@ class Policy:
 
 
 def earliest(auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
-    return [min(auctions, key=lambda a: a.order)] if auctions else []
+    """The auction that opened first (the list comes in opening order)."""
+    return [auctions[0]] if auctions else []
 
 
 class FirstComeFirstServed(Policy):

@@ -3,15 +3,48 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import defaultdict
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from engine.geometry import Point
+from engine.geometry import Point, segment_point_distance
 from engine.scenario import Crater, Scenario
 
 CLEARANCE = 0.5
 """Robots keep this far from a crater's rim (their half-width); planning inflates craters by it."""
+
+
+class CraterIndex:
+    """Craters bucketed on a coarse grid, so segment tests look only at nearby craters."""
+
+    def __init__(
+        self, craters: tuple[Crater, ...], margin: float = CLEARANCE, bucket: float = 20.0
+    ) -> None:
+        self.bucket = bucket
+        self.buckets: dict[tuple[int, int], list[tuple[float, float, float]]] = defaultdict(list)
+        for c in craters:
+            r = c.r + margin
+            for bx in range(int((c.x - r) // bucket), int((c.x + r) // bucket) + 1):
+                for by in range(int((c.y - r) // bucket), int((c.y + r) // bucket) + 1):
+                    self.buckets[(bx, by)].append((c.x, c.y, r))
+
+    def _near(self, x0: float, y0: float, x1: float, y1: float) -> set[tuple[float, float, float]]:
+        b = self.bucket
+        out: set[tuple[float, float, float]] = set()
+        for bx in range(int(min(x0, x1) // b), int(max(x0, x1) // b) + 1):
+            for by in range(int(min(y0, y1) // b), int(max(y0, y1) // b) + 1):
+                out.update(self.buckets.get((bx, by), ()))
+        return out
+
+    def point_free(self, x: float, y: float) -> bool:
+        return all(math.hypot(x - cx, y - cy) > r for cx, cy, r in self._near(x, y, x, y))
+
+    def segment_free(self, a: Point, b: Point) -> bool:
+        return all(
+            segment_point_distance(a, b, (cx, cy)) > r
+            for cx, cy, r in self._near(a[0], a[1], b[0], b[1])
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,11 +85,13 @@ class World:
     craters: tuple[Crater, ...]
     sites: tuple[Site, ...]
     grid: SearchGrid
+    index: CraterIndex = field(compare=False)
 
-    def is_free(self, x: float, y: float, margin: float = CLEARANCE) -> bool:
+    def is_free(self, x: float, y: float) -> bool:
+        """Inside the area and clear of every crater by the robots' clearance."""
         if not (0.0 <= x <= self.width and 0.0 <= y <= self.height):
             return False
-        return all(math.hypot(x - c.x, y - c.y) > c.r + margin for c in self.craters)
+        return self.index.point_free(x, y)
 
     def to_dict(self) -> dict[str, object]:
         """The static map, as viewers draw it."""
@@ -75,19 +110,18 @@ class World:
         }
 
 
-def _free(x: float, y: float, s: Scenario, craters: tuple[Crater, ...], margin: float) -> bool:
+def _free(x: float, y: float, s: Scenario, wide: CraterIndex) -> bool:
     edge = 0.1
     if not (edge <= x <= s.width - edge and edge <= y <= s.height - edge):
         return False
-    return all(math.hypot(x - c.x, y - c.y) > c.r + margin for c in craters)
+    return wide.point_free(x, y)
 
 
 def _waypoint(
-    cx: float, cy: float, cw: float, ch: float, s: Scenario, craters: tuple[Crater, ...]
+    cx: float, cy: float, cw: float, ch: float, s: Scenario, wide: CraterIndex
 ) -> Point | None:
     """The cell's centre, or the free point of the cell nearest to it (None: all crater)."""
-    margin = 2 * CLEARANCE
-    if _free(cx, cy, s, craters, margin):
+    if _free(cx, cy, s, wide):
         return (cx, cy)
     steps = 8
     candidates = [
@@ -97,7 +131,7 @@ def _waypoint(
     ]
     candidates.sort(key=lambda p: (math.hypot(p[0] - cx, p[1] - cy), p))
     for p in candidates:
-        if _free(p[0], p[1], s, craters, margin):
+        if _free(p[0], p[1], s, wide):
             return p
     return None
 
@@ -106,10 +140,11 @@ def make_grid(s: Scenario, craters: tuple[Crater, ...]) -> SearchGrid:
     side = s.scan_radius * math.sqrt(2.0)  # a square this wide fits in the scan circle
     cols, rows = math.ceil(s.width / side - 1e-9), math.ceil(s.height / side - 1e-9)
     cw, ch = s.width / cols, s.height / rows
+    wide = CraterIndex(craters, margin=2 * CLEARANCE)  # scan points keep a double margin
     wps: list[Point | None] = []
     for r in range(rows):
         for c in range(cols):
-            wps.append(_waypoint((c + 0.5) * cw, (r + 0.5) * ch, cw, ch, s, craters))
+            wps.append(_waypoint((c + 0.5) * cw, (r + 0.5) * ch, cw, ch, s, wide))
     return SearchGrid(cols, rows, cw, ch, tuple(wps))
 
 
@@ -132,6 +167,7 @@ def generate_world(s: Scenario, rng: np.random.Generator) -> World:
     """Craters, then sites where the search can find them, then minerals split over sites."""
     craters = tuple(list(s.craters) + _random_craters(s, rng))
     grid = make_grid(s, craters)
+    wide = CraterIndex(craters, margin=2 * CLEARANCE)
     px, py = s.plant_xy
     edge = min(1.0, s.width / 4, s.height / 4)
     points: list[Point] = []
@@ -144,7 +180,7 @@ def generate_world(s: Scenario, rng: np.random.Generator) -> World:
         y = float(rng.uniform(edge, s.height - edge))
         if math.hypot(x - px, y - py) < s.start_spread + 2.0:
             continue
-        if not all(math.hypot(x - c.x, y - c.y) > c.r + 2 * CLEARANCE for c in craters):
+        if not wide.point_free(x, y):
             continue
         wp = grid.waypoints[grid.cell_of(x, y)]
         if wp is None or math.hypot(x - wp[0], y - wp[1]) > s.scan_radius * 0.999:
@@ -157,4 +193,4 @@ def generate_world(s: Scenario, rng: np.random.Generator) -> World:
         Site(id=f"site-{i + 1}", x=p[0], y=p[1], minerals=int(n))
         for i, (p, n) in enumerate(zip(points, counts, strict=True))
     )
-    return World(s.width, s.height, (px, py), craters, sites, grid)
+    return World(s.width, s.height, (px, py), craters, sites, grid, CraterIndex(craters))

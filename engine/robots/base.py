@@ -80,6 +80,7 @@ class Robot:
         self.leaving = False
         self.distance = 0.0
         self.motion: Motion | None = None
+        self.partner = coalition_partner(name)  # Policy 2's pairing rule, fixed by the name
         self.house = AuctionHouse(name, ctx, self._on_allocated)
         self.current: Assignment | None = None
         self.queue: deque[Assignment] = deque()
@@ -93,11 +94,14 @@ class Robot:
         ctx.bus.subscribe(name, self.on_message)
 
     def _reset_knowledge(self) -> None:
-        self.open_auctions: dict[str, OpenAuction] = {}
+        self.open_auctions: dict[str, OpenAuction] = {}  # the ones I can serve
+        self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
+        self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
         self.reserved: OpenAuction | None = None
         self.pending_awards: list[PendingAward] = []
         self.down: set[str] = set()
+        self.down_at: dict[str, float] = {}
         self.peer_open: dict[str, dict[str, OpenAuction]] = {}
         self.peer_alloc: dict[str, dict[str, Allocation]] = {}
         self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
@@ -210,14 +214,22 @@ class Robot:
     def on_message(self, msg: Message) -> None:
         if not self.alive:
             return
-        self.ctx.liveness.heard_from(self.name, msg.sender, float(self.env.now))
-        if msg.sender in self.down:
-            self.down.discard(msg.sender)
         handler = _HANDLERS.get(type(msg))
         if handler is not None:
             handler(self, msg)
 
     def _on_announce(self, msg: Announce) -> None:
+        if self.current is not None and self.current.task_id == msg.task_id:
+            self.ctx.bus.publish(
+                Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
+            )
+            return
+        if msg.auction_id in self.rounds:  # a re-announcement: only the round is new
+            self.rounds[msg.auction_id] = msg.round
+            if msg.auction_id in self.open_auctions:
+                self.consider_bids()
+            return
+        self.rounds[msg.auction_id] = msg.round
         info = OpenAuction(
             msg.auction_id,
             msg.auctioneer,
@@ -225,7 +237,6 @@ class Robot:
             msg.location,
             msg.task_id,
             msg.opened_at,
-            msg.round,
             msg.search_path,
         )
         if self.ctx.robots.get(msg.sender, self).rtype == self.rtype:
@@ -234,15 +245,27 @@ class Robot:
         for rec in list(self.house.open_auctions.values()):
             if rec.task_id == msg.task_id and rec.id != msg.auction_id and msg.sender < self.name:
                 self.house.cancel(rec.id)
-        if self.current is not None and self.current.task_id == msg.task_id:
-            self.ctx.bus.publish(
-                Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
-            )
-            return
         self.on_task_heard(info)
         if msg.task_type == self.capability:
             self.open_auctions[msg.auction_id] = info
+            self._in_order = None
             self.consider_bids()
+
+    def forget_auction(self, auction_id: str) -> OpenAuction | None:
+        self.rounds.pop(auction_id, None)
+        info = self.open_auctions.pop(auction_id, None)
+        if info is not None:
+            self._in_order = None
+        return info
+
+    def auctions_in_order(self) -> list[OpenAuction]:
+        """Open auctions I can serve, by opening order, minus those of auctioneers I think down."""
+        if self._in_order is None:
+            self._in_order = sorted(
+                (a for a in self.open_auctions.values() if a.auctioneer not in self.down),
+                key=lambda a: a.order,
+            )
+        return self._in_order
 
     def on_task_heard(self, info: OpenAuction) -> None:
         """Hook: any announcement (scouts learn of sites their peers found)."""
@@ -314,7 +337,7 @@ class Robot:
             self.consider_bids()
 
     def _on_close(self, msg: Close) -> None:
-        info = self.open_auctions.pop(msg.auction_id, None)
+        info = self.forget_auction(msg.auction_id)
         self.my_bids.pop(msg.auction_id, None)
         peer = self.peer_open.get(msg.sender)
         if peer is not None:
@@ -414,8 +437,13 @@ class Robot:
 
     def _on_leaving(self, msg: Leaving) -> None:
         if msg.sender not in self.down:
-            self.down.add(msg.sender)
-            self.peer_down(msg.sender)
+            self.mark_down(msg.sender)
+
+    def mark_down(self, peer: str) -> None:
+        self.down.add(peer)
+        self._in_order = None
+        self.down_at[peer] = float(self.env.now)
+        self.peer_down(peer)
 
     def _on_hello(self, msg: Hello) -> None:
         self.house.reannounce_open()
@@ -429,10 +457,8 @@ class Robot:
 
     def in_coalition(self) -> bool:
         """Paired with a live partner under a coalition policy (Policy 2)."""
-        if not self.ctx.policy.coalitions():
-            return False
-        partner = coalition_partner(self.name)
-        return partner is not None and self.peer_alive(partner)
+        partner = self.partner
+        return partner is not None and self.ctx.policy.coalitions() and self.peer_alive(partner)
 
     def peer_alive(self, name: str) -> bool:
         heard = self.ctx.liveness.last_heard(self.name, name)
@@ -442,18 +468,21 @@ class Robot:
     def consider_bids(self) -> None:
         if not self.participating or self.capability is None:
             return
-        auctions = [a for a in self.open_auctions.values() if a.auctioneer not in self.down]
+        auctions = self.auctions_in_order()
         if not auctions:
             return
         targets = self.ctx.policy.bid_targets(self.rtype, self.in_coalition(), auctions)
         busy = self.busy()
+        every_round = self.ctx.scenario.protocol.busy_bid == "every_round"
         for a in targets:
             prev = self.my_bids.get(a.auction_id)
+            rnd = self.rounds.get(a.auction_id, 0)
             if busy:
-                if prev is None or prev[0] != a.round:
-                    self._bid(a, -math.inf)
-            elif prev is None or prev[0] != a.round or not math.isfinite(prev[1]):
-                self._bid(a, -self.cost_to(a))
+                # -inf tells the auctioneer "capable, but busy"; by default once per auction
+                if prev is None or (every_round and prev[0] != rnd):
+                    self._bid(a, rnd, -math.inf)
+            elif prev is None or prev[0] != rnd or not math.isfinite(prev[1]):
+                self._bid(a, rnd, -self.cost_to(a))
 
     def cost_to(self, a: OpenAuction) -> float:
         """Length of the path this robot would drive to the task (SPEC §5.2); inf if none."""
@@ -462,8 +491,8 @@ class Robot:
         except PlanningError:
             return math.inf
 
-    def _bid(self, a: OpenAuction, utility: float) -> None:
-        self.my_bids[a.auction_id] = (a.round, utility)
+    def _bid(self, a: OpenAuction, rnd: int, utility: float) -> None:
+        self.my_bids[a.auction_id] = (rnd, utility)
         self.ctx.bus.publish(
             Bid(
                 sender=self.name,
@@ -472,7 +501,7 @@ class Robot:
                 bidder=self.name,
                 location=a.location,
                 utility=utility,
-                round=a.round,
+                round=rnd,
             )
         )
 
@@ -533,15 +562,24 @@ class Robot:
         proto = self.ctx.scenario.protocol
         now = float(self.env.now)
         board = self.ctx.liveness
+        for peer in [p for p in self.down if board.last_heard(self.name, p) > self.down_at[p]]:
+            self.down.discard(peer)  # heard again since: it is back
+            self._in_order = None
         for peer in board.silent(self.name, now, proto.failure_timeout_s):
             if peer not in self.down and peer not in self._probing:
                 self._probing.add(peer)
                 self._spawn(self._probe(peer))
         # an auction whose auctioneer no longer lists it has closed (we missed the Close)
+        latest: dict[str, Heartbeat | None] = {}
         for aid, info in list(self.open_auctions.items()):
-            hb = board.last_heartbeat(self.name, info.auctioneer)
+            who = info.auctioneer
+            hb = (
+                latest[who]
+                if who in latest
+                else latest.setdefault(who, board.last_heartbeat(self.name, who))
+            )
             if hb is not None and hb.t > info.opened_at + 1e-9 and aid not in hb.open_auctions:
-                del self.open_auctions[aid]
+                self.forget_auction(aid)
         # a winner that neither lists a task nor reports it done has dropped it
         grace = 2 * proto.heartbeat_s + proto.ack_timeout_s
         for tid, alloc in list(self.house.allocations.items()):
@@ -568,8 +606,7 @@ class Robot:
         finally:
             self._probing.discard(peer)
         if peer not in self.down and self.participating:
-            self.down.add(peer)
-            self.peer_down(peer)
+            self.mark_down(peer)
 
     def peer_down(self, peer: str) -> None:
         """`peer` fell silent or left: re-auction what it held from me, adopt its duties."""
@@ -581,7 +618,7 @@ class Robot:
                 self.reauction(alloc, board.last_heartbeat(self.name, peer))
         for aid, info in list(self.open_auctions.items()):
             if info.auctioneer == peer:
-                del self.open_auctions[aid]
+                self.forget_auction(aid)
         if self.reserved is not None and self.reserved.auctioneer == peer:
             self.reserved = None
         peer_robot = self.ctx.robots.get(peer)

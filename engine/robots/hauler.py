@@ -9,7 +9,6 @@ import simpy
 from engine.context import NEAR
 from engine.geometry import Point, dist, segment_point_distance
 from engine.messages import Close, TaskDone
-from engine.policies import coalition_partner
 from engine.robots.base import Assignment, Robot
 
 if TYPE_CHECKING:
@@ -126,7 +125,7 @@ class Hauler(Robot):
         assert site is not None
         self.state = "travelling"
         yield from self.go_to(site)
-        partner = coalition_partner(self.name)
+        partner = self.partner
         if self.queue or not self.in_coalition():
             return  # won a task or was released while driving: back to the main loop
         exc = self._excavator_here(lambda e: e.name == partner)
@@ -150,7 +149,7 @@ class Hauler(Robot):
 
     def in_coalition(self) -> bool:
         """Paired, and the partner has a site: while it has none, carry for anyone."""
-        return super().in_coalition() and self.partner_site is not None
+        return self.partner_site is not None and super().in_coalition()
 
     def ready_for(self, exc: Excavator) -> bool:
         """Standing by this excavator with an empty bin, waiting for its bucket?"""
@@ -163,12 +162,12 @@ class Hauler(Robot):
         )
 
     def on_close_heard(self, msg: Close) -> None:
-        if msg.task_type == "excavate" and msg.allocated_to == coalition_partner(self.name):
+        if msg.task_type == "excavate" and msg.allocated_to == self.partner:
             self.partner_site = msg.location
             self.wake()
 
     def on_task_done_heard(self, msg: TaskDone) -> None:
-        if msg.sender == coalition_partner(self.name) and msg.task_id.startswith("excavate@"):
+        if msg.sender == self.partner and msg.task_id.startswith("excavate@"):
             self.partner_site = None
             self.wake()
             self.consider_bids()

