@@ -62,3 +62,19 @@ def test_operator_actions_replay_to_the_same_run():
     replay.run()
     assert trace_digest(live) == trace_digest(replay)
     assert without_wall(live.metrics()) == without_wall(replay.metrics())
+
+
+# One seed's whole event log per policy, pinned. A change here means the engine's behaviour
+# changed: if that was intended, say so in the commit and update the digests.
+GOLDEN = {
+    "fcfs": (4704, "4c43e850372bce7bea85939bab599e696a53136ad30a10eeae03b836e70ed32a"),
+    "coalition": (3746, "a90628b026d65f1a0568308c7e0473dc2efeb4ebd0b109c60a784f64ba5a3de1"),
+    "nearest": (4714, "1870fb8989140e07cb781369a1995806180a69fcab59c7eb714ad25c82e0c12a"),
+}
+
+
+def test_golden_traces_of_seed_0():
+    for policy, (n_events, digest) in GOLDEN.items():
+        m = Mission(reference_scenario(), 0, policy)
+        m.run()
+        assert (len(m.events), trace_digest(m)) == (n_events, digest), policy
