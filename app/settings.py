@@ -34,6 +34,7 @@ class Settings(BaseSettings):
 
     max_running_missions: Annotated[int, Field(ge=1, le=1000)] = 8
     max_robots: Annotated[int, Field(ge=1, le=100_000)] = 500
+    max_grid_cells: Annotated[int, Field(ge=100, le=10_000_000)] = 100_000
     max_viewers: Annotated[int, Field(ge=1, le=10_000)] = 256
     viewer_queue: Annotated[int, Field(ge=16, le=1_000_000)] = 2000
     ws_max_message: Annotated[int, Field(ge=64, le=1_048_576)] = 4096

@@ -95,10 +95,15 @@ async def require_operator(request: Request, credentials: Credentials) -> AsyncI
         stepper.operators -= 1
 
 
-async def require_viewer(request: Request, credentials: Credentials) -> None:
+async def require_viewer(request: Request) -> None:
+    """Reads are public unless REGOLITH_READ_REQUIRES_TOKEN (so the schema shows no auth)."""
     services = get_services(request)
     if services.settings.read_requires_token:
-        check_token(credentials, services.token)
+        scheme, _, token = request.headers.get("authorization", "").partition(" ")
+        given = None
+        if scheme.lower() == "bearer" and token:
+            given = HTTPAuthorizationCredentials(scheme=scheme, credentials=token)
+        check_token(given, services.token)
 
 
 Operator = Depends(require_operator)

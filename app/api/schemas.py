@@ -7,7 +7,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-from engine import Scenario, resolve_policy
+from engine import POLICIES, POLICY_NAMES, Scenario, resolve_policy
 
 Finite = Annotated[float, Field(allow_inf_nan=False, ge=-1e7, le=1e7)]
 Point = tuple[Finite, Finite]
@@ -20,13 +20,14 @@ MissionStatus = Literal[
 
 
 def _policy(value: str | int) -> str:
-    return resolve_policy(value)  # ValueError names the choices
+    return resolve_policy(value)
 
 
-PolicyName = Annotated[
-    Annotated[str, Field(max_length=32)] | Annotated[int, Field(ge=0, le=1000)],
-    AfterValidator(_policy),
-]
+# The schema lists the policies registered when the app is imported: names or numbers.
+_NAMES = Literal[tuple(sorted(POLICIES))]  # type: ignore[valid-type]
+_NUMBERS = Literal[tuple(sorted(POLICY_NAMES))]  # type: ignore[valid-type]
+PolicyName = Annotated[_NAMES | _NUMBERS, AfterValidator(_policy)]
+PolicyFilter = _NAMES
 Speed = Annotated[float, Field(ge=0, le=10_000, allow_inf_nan=False)] | Literal["max"]
 
 
@@ -200,6 +201,12 @@ class EventPage(BaseModel):
     total: int
     limit: int
     next_after: int | None
+
+
+class ErrorRead(BaseModel):
+    """Every refusal other than a validation error (422)."""
+
+    detail: str
 
 
 class Health(BaseModel):

@@ -2,10 +2,24 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from fastapi import APIRouter
 
 from app.api.routes import health, history, live, missions, robots, scenarios
+from app.api.schemas import ErrorRead
 
-api_router = APIRouter(prefix="/api")
+_ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": ErrorRead, "description": text}
+    for code, text in [
+        (401, "operator token missing (mutating calls)"),
+        (403, "operator token wrong"),
+        (404, "unknown mission or robot"),
+        (409, "the mission's state forbids it (finished, interrupted)"),
+        (413, "request body too large"),
+        (429, "a limit or the rate limit was reached"),
+    ]
+}
+api_router = APIRouter(prefix="/api", responses=_ERRORS)
 for _module in (health, scenarios, missions, robots, history, live):
     api_router.include_router(_module.router)

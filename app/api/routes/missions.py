@@ -15,7 +15,7 @@ from app.api.schemas import (
     MissionPage,
     MissionRead,
     MissionStatus,
-    PolicyName,
+    PolicyFilter,
     PolicyUpdate,
     SpeedUpdate,
 )
@@ -41,7 +41,7 @@ async def create_mission(body: MissionCreate, missions: MissionsDep) -> MissionD
 async def list_missions(
     missions: MissionsDep,
     status: MissionStatus | None = None,
-    policy: Annotated[PolicyName | None, Query()] = None,
+    policy: Annotated[PolicyFilter | None, Query()] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> MissionPage:
