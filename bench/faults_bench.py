@@ -45,15 +45,23 @@ def main() -> int:
     o = ap.parse_args()
     losses = [float(x) for x in o.losses.split(",")]
     policies = o.policies.split(",")
-    jobs = [(p, s, loss, o.latency, o.jitter) for loss in losses for p in policies
-            for s in range(o.seeds)]
+    jobs = [
+        (p, s, loss, o.latency, o.jitter)
+        for loss in losses
+        for p in policies
+        for s in range(o.seeds)
+    ]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(o.workers) as pool:
         rows = list(pool.map(one, jobs, chunksize=4))
-    print(f"{len(rows)} missions in {time.perf_counter() - t0:.0f} s "
-          f"(latency {o.latency} s, jitter {o.jitter} s)")
-    print("| policy | loss | completed | makespan mean ± 95% CI (s) | vs loss 0 | re-auctions "
-          "| messages lost |")
+    print(
+        f"{len(rows)} missions in {time.perf_counter() - t0:.0f} s "
+        f"(latency {o.latency} s, jitter {o.jitter} s)"
+    )
+    print(
+        "| policy | loss | completed | makespan mean ± 95% CI (s) | vs loss 0 | re-auctions "
+        "| messages lost |"
+    )
     print("|---|---|---|---|---|---|---|")
     for p in policies:
         base = None
