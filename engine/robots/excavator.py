@@ -112,9 +112,11 @@ class Excavator(Robot):
 
     def transfer(self, hauler: Hauler, site: SiteState) -> Any:
         self.state = "loading"
+        hauler.loading_from = self
         yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
-        if not hauler.alive:
-            return  # it failed while we worked; the mineral is still in the bucket
+        hauler.loading_from = None
+        if not hauler.can_receive(self):
+            return  # it failed or left while we worked: the mineral is still in the bucket
         task_id = self.waiting_for
         assert task_id is not None
         self.bucket = 0

@@ -27,6 +27,7 @@ class Hauler(Robot):
         self.bin = 0
         self._loaded: simpy.Event | None = None
         self.partner_site: Point | None = None
+        self.loading_from: Excavator | None = None  # a bucket is being emptied into my bin
 
     def load(self) -> int:
         return self.bin
@@ -71,6 +72,10 @@ class Hauler(Robot):
         limit = self.ctx.scenario.timing.transfer_s + self.ctx.scenario.protocol.failure_timeout_s
         yield self._loaded | self.env.timeout(limit)
         self._loaded = None
+
+    def can_receive(self, exc: Excavator) -> bool:
+        """Alive, standing by the excavator, with an empty bin: a mineral can move over."""
+        return self.alive and self.bin == 0 and dist(self.pos, exc.pos) <= NEAR
 
     def receive(self, exc: Excavator, task_id: str) -> None:
         """The excavator empties its bucket into my bin; a coalition hand-over is my task now."""
@@ -139,6 +144,8 @@ class Hauler(Robot):
         exc.partner_arrived(self)
         woken = self.wait_for_wake()
         yield self._loaded | woken
+        if self.loading_from is not None:  # a transfer has begun: stay until it ends
+            yield self._loaded | self.env.timeout(self.ctx.scenario.timing.transfer_s)
         self._loaded = None
         exc.partner_left(self)
         if self.bin:
