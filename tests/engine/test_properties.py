@@ -73,3 +73,25 @@ def test_missions_survive_abrupt_failures(seed, policy, plan):
     assert m.status == "completed", (failures, m.metrics())
     assert m.ctx.delivered == m.ctx.minerals_total
     assert m.ctx.sites_found == len(m.ctx.sites)
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    policy=POLICIES,
+    loss=st.sampled_from([0.1, 0.3]),
+    latency=st.sampled_from([0.0, 0.5]),
+)
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_invariants_hold_on_a_lossy_slow_bus(seed, policy, loss, latency):
+    scenario = small_scenario(
+        sites=3,
+        minerals=9,
+        team={"scouts": 2, "excavators": 2, "haulers": 3},
+        bus={"loss": loss, "latency_s": latency, "jitter_s": latency},
+    )
+    m = Mission(scenario, seed, policy)
+    watch = InvariantWatch(m)
+    m.run()
+    watch.final()
+    assert m.status == "completed"
+    assert m.ctx.delivered == m.ctx.minerals_total
