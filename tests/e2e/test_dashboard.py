@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 import httpx
-import pytest
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import TOKEN, ConsoleLog
@@ -208,11 +207,6 @@ def test_add_fail_and_enable_robots(operator: Page, start_mission: Start) -> Non
     expect(row.get_by_role("button", name=re.compile("^Disable"))).to_be_enabled()
 
 
-@pytest.mark.xfail(
-    reason="engine: a graceful disable of an idle robot raises 'A process is not allowed "
-    "to interrupt itself' (go_quiet -> fail interrupts its own process)",
-    strict=False,
-)
 def test_graceful_disable_shows_disabled(operator: Page, start_mission: Start) -> None:
     page = operator
     mission = start_mission(seed=6, speed=1)
