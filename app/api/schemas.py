@@ -26,7 +26,7 @@ def _policy(value: str | int) -> str:
 # The schema lists the policies registered when the app is imported: names or numbers.
 _NAMES = Literal[tuple(sorted(POLICIES))]  # type: ignore[valid-type]
 _NUMBERS = Literal[tuple(sorted(POLICY_NAMES))]  # type: ignore[valid-type]
-PolicyName = Annotated[_NAMES | _NUMBERS, AfterValidator(_policy)]
+PolicyName = Annotated[_NAMES | _NUMBERS, AfterValidator(_policy)]  # type: ignore[valid-type]
 PolicyFilter = _NAMES
 Speed = Annotated[float, Field(ge=0, le=10_000, allow_inf_nan=False)] | Literal["max"]
 

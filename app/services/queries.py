@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 from sqlalchemy import Select, exists, func, or_, select
 from sqlalchemy.orm import Session, selectinload
@@ -20,7 +20,7 @@ class Page(Generic[T]):
     total: int
 
 
-def _page(session: Session, stmt: Select[tuple[T]], limit: int, offset: int) -> Page[T]:
+def _page(session: Session, stmt: Select[Any], limit: int, offset: int) -> Page[Any]:
     total = session.scalar(select(func.count()).select_from(stmt.order_by(None).subquery())) or 0
     items = list(session.scalars(stmt.limit(limit).offset(offset)).unique())
     return Page(items, int(total))

@@ -10,7 +10,7 @@ from __future__ import annotations
 import asyncio
 import json
 from time import perf_counter
-from typing import Any
+from typing import Any, Literal
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -77,7 +77,8 @@ async def revive(runner: MissionRunner, store: Store, row: MissionRow) -> LiveMi
     """Replay `row` to its last stored simulation time and hand it to the runner (paused)."""
     gate = runner.gate
     with gate:
-        m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=row.planner)
+        planner: Literal["ompl", "straight"] = "straight" if row.planner == "straight" else "ompl"
+        m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)
     try:
         for action in sorted((a for a in row.actions if a.replay), key=lambda a: a.seq):
             await _advance_to(gate, m, action.t)

@@ -20,13 +20,13 @@ from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
 from time import perf_counter
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
-from sqlalchemy import case, func, select, update
+from sqlalchemy import Insert, Table, case, func, insert, select, update
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
-from app.db.models import Action, Auction, Award, Bid, Event, Mission, utcnow
+from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, utcnow
 from app.services.recorder import Batch, Stored
 
 T = TypeVar("T")
@@ -202,22 +202,26 @@ def _record_action(
     return row
 
 
+def _core(model: type[Base]) -> Insert:
+    """A Core INSERT on the model's table: plain executemany, cheaper than ORM bulk inserts."""
+    return insert(cast(Table, model.__table__))
+
+
 def _insert_events(session: Session, rows: list[dict[str, Any]]) -> None:
-    session.execute(Event.__table__.insert(), rows)
+    session.execute(_core(Event), rows)
 
 
 def _write_batch(session: Session, batch: Batch, changes: dict[str, Any]) -> None:
-    # Core inserts (plain executemany): a third cheaper than ORM bulk inserts.
     if batch.events:
-        session.execute(Event.__table__.insert(), batch.events)
+        session.execute(_core(Event), batch.events)
     if batch.new_auctions:
-        session.execute(Auction.__table__.insert(), batch.new_auctions)
+        session.execute(_core(Auction), batch.new_auctions)
     if batch.changed_auctions:
         session.execute(update(Auction), batch.changed_auctions)
     if batch.bids:
-        session.execute(Bid.__table__.insert(), batch.bids)
+        session.execute(_core(Bid), batch.bids)
     if batch.awards:
-        session.execute(Award.__table__.insert(), batch.awards)
+        session.execute(_core(Award), batch.awards)
     latest = case((Mission.sim_time < batch.sim_time, batch.sim_time), else_=Mission.sim_time)
     _update_mission(session, batch.mission_id, {"sim_time": latest, **changes})
 

@@ -41,7 +41,7 @@ async def create_mission(body: MissionCreate, missions: MissionsDep) -> MissionD
 async def list_missions(
     missions: MissionsDep,
     status: MissionStatus | None = None,
-    policy: Annotated[PolicyFilter | None, Query()] = None,
+    policy: Annotated[PolicyFilter | None, Query()] = None,  # type: ignore[valid-type]
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> MissionPage:
