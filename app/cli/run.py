@@ -11,7 +11,7 @@ from typing import Annotated, Any
 import typer
 
 from engine import (
-    CommandRejected,
+    EngineError,
     ScenarioError,
     load_scenario,
     reference_scenario,
@@ -142,7 +142,7 @@ def run(
     actions = parse_actions(fail, enable, add)
     try:
         metrics = run_mission(scen, seed, policy_name, actions)
-    except CommandRejected as exc:
+    except EngineError as exc:  # an action the mission refuses (unknown robot, bad time …)
         raise fail_usage(str(exc)) from None
     if json_out:
         typer.echo(json.dumps(_finite(metrics), sort_keys=True))

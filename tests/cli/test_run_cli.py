@@ -1,0 +1,86 @@
+"""`regolith run`: one JSON object with the documented keys, repeatable, clear errors."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+
+REQUIRED = {
+    "policy", "seed", "completed", "makespan_s", "sites_found", "sites_total",
+    "minerals_delivered", "minerals_total", "distance", "auction_open_s", "auctions", "bids",
+    "declines", "messages", "wall_s", "failures", "reauctions", "minerals_dropped",
+    "minerals_recovered", "messages_lost",
+}  # fmt: skip
+
+
+def regolith(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-c", "from app.cli import main; main()", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_json_is_one_object_with_every_key_and_repeats_but_for_wall_time():
+    first, second = (regolith("run", "--policy", "2", "--seed", "3", "--json") for _ in range(2))
+    assert first.returncode == 0, first.stderr
+    a, b = json.loads(first.stdout), json.loads(second.stdout)
+    assert REQUIRED <= a.keys()
+    assert a["policy"] == "coalition" and a["completed"] is True
+    assert set(a["distance"]) == {"scout", "excavator", "hauler"}
+    assert set(a["auction_open_s"]["scout_excavator"]) == {"count", "mean", "p50", "max"}
+    a.pop("wall_s"), b.pop("wall_s")
+    assert a == b
+
+
+def test_faults_on_the_command_line_reach_the_json():
+    out = regolith(
+        "run", "--policy", "fcfs", "--seed", "1", "--json", "--loss", "0.2",
+        "--fail", "hauler-2@400", "--fail", "excavator-1@700:graceful",
+        "--enable", "hauler-2@900", "--add", "excavator@500",
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    m = json.loads(out.stdout)
+    assert m["completed"] and m["minerals_delivered"] == 64
+    assert m["failures"] == 1 and m["messages_lost"] > 0
+
+
+def test_the_human_summary_names_the_figures():
+    out = CliRunner().invoke(cli, ["run", "--policy", "3", "--seed", "0"])
+    assert out.exit_code == 0
+    assert "makespan" in out.output and "64/64 delivered" in out.output
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--policy", "7", "--seed", "1"], "policy"),
+        (["--policy", "1", "--seed", "1", "--scale", "0"], "--scale"),
+        (["--policy", "1", "--seed", "1", "--loss", "2"], "loss"),
+        (["--policy", "1", "--seed", "1", "--fail", "hauler-2"], "--fail"),
+        (["--policy", "1", "--seed", "1", "--fail", "hauler-2@5:sideways"], "mode"),
+        (["--policy", "1", "--seed", "1", "--add", "rover@5"], "--add"),
+        (["--policy", "1", "--seed", "1", "--fail", "hauler-99@5"], "hauler-99"),
+        (["--policy", "1", "--seed", "1", "--scenario", "missing.toml"], "missing.toml"),
+    ],
+)
+def test_bad_arguments_give_one_line_and_exit_2(args, says):
+    out = CliRunner().invoke(cli, ["run", *args])
+    assert out.exit_code == 2, out.output
+    lines = [ln for ln in out.output.splitlines() if ln.strip()]
+    assert any(says in ln for ln in lines), out.output
+    assert "Traceback" not in out.output
+
+
+def test_a_bad_scenario_file_names_the_field(tmp_path: Path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("minerals = 3\nsites = 5\n[team]\nhaulers = 0\n")
+    out = CliRunner().invoke(cli, ["run", "--policy", "1", "--seed", "0", "--scenario", str(bad)])
+    assert out.exit_code == 2
+    assert "team.haulers" in out.output
