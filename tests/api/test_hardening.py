@@ -6,8 +6,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from websockets.exceptions import ConnectionClosed
 
-from tests.api.conftest import LiveServer, make_settings
+from tests.api.conftest import LiveServer, make_settings, recv
 
 
 @pytest.fixture
@@ -79,3 +80,17 @@ def test_metrics_in_prometheus_format(server: LiveServer) -> None:
     assert 'regolith_missions_live{status="paused"} 1' in text
     assert 'regolith_mission_speed{mission="1"} 1.0' in text
     assert "regolith_db_writes_total" in text and "regolith_frame_delay_seconds" in text
+
+
+def test_viewer_limit_closes_extra_viewers_with_1013(tmp_path: Path) -> None:
+    server = LiveServer(make_settings(tmp_path, max_viewers=1)).start()
+    try:
+        with server.client() as api:
+            mid = api.post("/api/missions", json={"paused": True, "planner": "straight"}).json()
+        with server.ws(mid["id"]) as first:
+            assert recv(first)["type"] == "snapshot"
+            with server.ws(mid["id"]) as second, pytest.raises(ConnectionClosed) as closed:
+                recv(second)
+            assert closed.value.rcvd is not None and closed.value.rcvd.code == 1013
+    finally:
+        server.stop()
