@@ -11,11 +11,13 @@ _HEADERS = {
     "x-content-type-options": "nosniff",
     "x-frame-options": "DENY",
     "referrer-policy": "no-referrer",
-    "content-security-policy": (
-        "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
-        "img-src 'self' data:; connect-src 'self' ws: wss:; frame-ancestors 'none'"
-    ),
 }
+_CSP = (
+    "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
+    "img-src 'self' data:; connect-src 'self' ws: wss:; frame-ancestors 'none'"
+)
+# FastAPI's own docs pages load Swagger UI / ReDoc from a CDN with an inline script.
+_NO_CSP = frozenset({"/docs", "/docs/oauth2-redirect", "/redoc"})
 
 
 class SecurityHeadersMiddleware:
@@ -34,6 +36,8 @@ class SecurityHeadersMiddleware:
                 headers = MutableHeaders(scope=message)
                 for k, v in _HEADERS.items():
                     headers.setdefault(k, v)
+                if scope["path"] not in _NO_CSP:
+                    headers.setdefault("content-security-policy", _CSP)
             await send(message)
 
         await self.app(scope, receive, send_with_headers)
