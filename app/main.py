@@ -12,6 +12,7 @@ from fastapi.responses import HTMLResponse
 from fastapi.staticfiles import StaticFiles
 from starlette.concurrency import run_in_threadpool
 
+from app import logs
 from app.api import errors
 from app.api.deps import Services
 from app.api.routes import api_router
@@ -37,6 +38,7 @@ def _lifespan(settings: Settings):  # type: ignore[no-untyped-def]
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         async with AsyncExitStack() as stack:
+            stack.callback(logs.uninstall, logs.install())
             token = resolve_token(settings)
             engine = make_engine(settings.database_url, autocheckpoint=False)
             stack.callback(engine.dispose)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -96,3 +97,19 @@ def test_viewer_limit_closes_extra_viewers_with_1013(tmp_path: Path) -> None:
             assert closed.value.rcvd is not None and closed.value.rcvd.code == 1013
     finally:
         server.stop()
+
+
+def test_token_in_a_socket_url_never_reaches_the_logs() -> None:
+    from app.logs import RedactTokens
+
+    record = logging.LogRecord(
+        "uvicorn.error",
+        logging.INFO,
+        __file__,
+        1,
+        '%s - "WebSocket %s" [accepted]',
+        ("127.0.0.1:5", "/api/missions/1/live?token=s3cret-value&x=1"),
+        None,
+    )
+    assert RedactTokens().filter(record)
+    assert "s3cret" not in record.getMessage() and "token=***&x=1" in record.getMessage()
