@@ -1,5 +1,5 @@
-"""Engine speed: wall time per mission, simulated seconds per wall second, planner queries and
-their median time, and peak memory — per policy, over several seeds, at several scales.
+"""Engine speed: wall and CPU time per mission, simulated seconds per wall second, planner
+queries and their median time, and peak memory — per policy, over seeds, at several scales.
 
     .venv/bin/python bench/engine_bench.py                 # scales 1 and 10
     .venv/bin/python bench/engine_bench.py --scales 1,10,100 --seeds 5
@@ -23,10 +23,10 @@ def one_mission(args: tuple[str, int, int]) -> dict[str, Any]:
     policy, seed, scale = args
     from engine import Mission, reference_scenario
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     m = Mission(reference_scenario().scaled(scale), seed, policy)
     metrics = m.run()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     stats = m.ctx.planner.stats
     ompl = sorted(stats.ompl_seconds)
     return {
@@ -36,6 +36,7 @@ def one_mission(args: tuple[str, int, int]) -> dict[str, Any]:
         "completed": metrics["completed"],
         "makespan_s": metrics["makespan_s"] or m.now,
         "wall_s": wall,
+        "cpu_s": cpu,
         "events": len(m.events),
         "messages": metrics["messages"],
         "queries": stats.queries,
@@ -60,7 +61,7 @@ def main() -> int:
     opts = ap.parse_args()
     start = time.perf_counter()
     print(
-        f"{'scale':>5} {'policy':>9} {'n':>3} {'wall med':>9} {'wall min':>9} "
+        f"{'scale':>5} {'policy':>9} {'n':>3} {'wall med':>9} {'wall min':>9} {'cpu med':>8} "
         f"{'sim s/wall s':>12} {'queries':>8} {'ompl':>6} {'ompl ms':>8} {'peak MB':>8} done"
     )
     for scale in (int(s) for s in opts.scales.split(",")):
@@ -74,7 +75,8 @@ def main() -> int:
             speed = statistics.median(r["makespan_s"] / r["wall_s"] for r in rows)
             print(
                 f"{scale:>5} {policy:>9} {len(rows):>3} {statistics.median(walls):>8.3f}s "
-                f"{min(walls):>8.3f}s {speed:>12.0f} "
+                f"{min(walls):>8.3f}s {statistics.median(r['cpu_s'] for r in rows):>7.3f}s "
+                f"{speed:>12.0f} "
                 f"{statistics.median(r['queries'] for r in rows):>8.0f} "
                 f"{statistics.median(r['ompl_queries'] for r in rows):>6.0f} "
                 f"{statistics.median(r['ompl_median_ms'] for r in rows):>8.2f} "
