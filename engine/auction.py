@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
@@ -230,7 +230,9 @@ class AuctionHouse:
         except simpy.Interrupt:
             return
 
-    def _close(self, rec: AuctionRecord, winner: str) -> None:
+    def _publish_close(
+        self, rec: AuctionRecord, winner: str | None, status: Literal["closed", "cancelled"]
+    ) -> None:
         self.ctx.bus.publish(
             Close(
                 sender=self.owner,
@@ -240,9 +242,13 @@ class AuctionHouse:
                 location=rec.location,
                 task_id=rec.task_id,
                 allocated_to=winner,
+                status=status,
             )
         )
-        self.ctx.close_auction(rec, "closed", winner)
+        self.ctx.close_auction(rec, status, winner)
+
+    def _close(self, rec: AuctionRecord, winner: str) -> None:
+        self._publish_close(rec, winner, "closed")
         self.open_auctions.pop(rec.id, None)
         self._live.pop(rec.id, None)
         alloc = Allocation(
@@ -259,19 +265,7 @@ class AuctionHouse:
             return
         if live is not None and live.process is not None and live.process.is_alive:
             live.process.interrupt("cancelled")
-        self.ctx.bus.publish(
-            Close(
-                sender=self.owner,
-                auction_id=rec.id,
-                auctioneer=self.owner,
-                task_type=rec.task_type,
-                location=rec.location,
-                task_id=rec.task_id,
-                allocated_to=None,
-                status="cancelled",
-            )
-        )
-        self.ctx.close_auction(rec, "cancelled", None)
+        self._publish_close(rec, None, "cancelled")
 
     # --- incoming messages ---------------------------------------------------------------
     def on_bid(self, msg: Bid) -> None:
