@@ -148,8 +148,9 @@ class MissionRunner:
                     changes = {"status": "interrupted", "final_state": self._safe_snap(lm)}
                     self._write(lm, changes)
         await self.drain()
-        for lm in self.live.values():
-            lm.mission.close()
+        with self.gate:
+            for lm in self.live.values():
+                lm.mission.close()
         self.live.clear()
         self.heap.stop()
 
@@ -284,7 +285,8 @@ class MissionRunner:
             try:
                 await written
             finally:
-                lm.mission.close()
+                with self.gate:
+                    lm.mission.close()
                 self.live.pop(lm.id, None)
                 self.forget_hub(lm.id)
 

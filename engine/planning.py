@@ -15,7 +15,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from engine.geometry import Point, path_length
+from engine.geometry import Point
 from engine.world import World
 
 Path = tuple[Point, ...]
@@ -136,8 +136,3 @@ class OmplPlanner:
         self.__dict__.pop("_ss", None)
         self.__dict__.pop("_motion", None)
         self.__dict__.pop("_space", None)
-
-
-def plan_length(planner: PathPlanner, start: Point, goal: Point) -> tuple[Path, float]:
-    path = planner.plan(start, goal)
-    return path, path_length(path)

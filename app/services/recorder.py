@@ -26,6 +26,7 @@ class Batch:
     changed_auctions: list[dict[str, Any]] = field(default_factory=list)
     bids: list[dict[str, Any]] = field(default_factory=list)
     awards: list[dict[str, Any]] = field(default_factory=list)
+    changed_awards: list[dict[str, Any]] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.events) + len(self.new_auctions) + len(self.changed_auctions)
@@ -59,7 +60,7 @@ class Stored:
 
     events: int = 0
     bids: dict[str, int] = field(default_factory=dict)
-    awards: dict[str, int] = field(default_factory=dict)
+    awards: dict[str, list[str]] = field(default_factory=dict)  # outcomes, by index
 
 
 class Recorder:
@@ -71,9 +72,11 @@ class Recorder:
         self.mission = mission
         self._events = stored.events
         self._bids = dict(stored.bids)
-        self._awards = dict(stored.awards)
+        self._awards = {aid: list(outcomes) for aid, outcomes in stored.awards.items()}
         self._index: dict[str, _Record] = {}
         self._seen_auctions = 0
+        # Open auctions and pending offers may still change (after a restart: check them all once).
+        self._watch: set[str] = set(stored.bids)
 
     def _auction(self, auction_id: str) -> _Record | None:
         auctions = self.mission.auctions
@@ -109,7 +112,7 @@ class Recorder:
             aid = ev.data.get("auction_id") if isinstance(ev.data, dict) else None
             if isinstance(aid, str):
                 dirty.add(aid)
-        for aid in sorted(dirty):
+        for aid in sorted(dirty | self._watch):
             rec = self._auction(aid)
             if rec is not None:
                 self._add_auction(batch, rec.to_dict())
@@ -117,13 +120,17 @@ class Recorder:
 
     def _add_auction(self, batch: Batch, d: dict[str, Any]) -> None:
         aid = d["id"]
+        if d["status"] == "open" or any(a["outcome"] == "pending" for a in d.get("awards", [])):
+            self._watch.add(aid)
+        else:
+            self._watch.discard(aid)
         row = auction_row(self.mission_id, d)
         if aid in self._bids:
             batch.changed_auctions.append(row)
         else:
             batch.new_auctions.append(row)
             self._bids[aid] = 0
-            self._awards[aid] = 0
+            self._awards[aid] = []
         for i, b in enumerate(d.get("bids", [])[self._bids[aid] :], start=self._bids[aid]):
             batch.bids.append(
                 {
@@ -137,15 +144,27 @@ class Recorder:
                 }
             )
         self._bids[aid] = len(d.get("bids", []))
-        for i, a in enumerate(d.get("awards", [])[self._awards[aid] :], start=self._awards[aid]):
-            batch.awards.append(
-                {
-                    "mission_id": self.mission_id,
-                    "auction_id": aid,
-                    "idx": i,
-                    "t": a["t"],
-                    "winner": a["winner"],
-                    "outcome": a["outcome"],
-                }
-            )
-        self._awards[aid] = len(d.get("awards", []))
+        stored = self._awards[aid]
+        for i, a in enumerate(d.get("awards", [])):
+            if i >= len(stored):  # a new offer
+                batch.awards.append(
+                    {
+                        "mission_id": self.mission_id,
+                        "auction_id": aid,
+                        "idx": i,
+                        "t": a["t"],
+                        "winner": a["winner"],
+                        "outcome": a["outcome"],
+                    }
+                )
+                stored.append(a["outcome"])
+            elif stored[i] != a["outcome"]:  # an offer answered since (pending → accepted)
+                batch.changed_awards.append(
+                    {
+                        "mission_id": self.mission_id,
+                        "auction_id": aid,
+                        "idx": i,
+                        "outcome": a["outcome"],
+                    }
+                )
+                stored[i] = a["outcome"]

@@ -222,6 +222,8 @@ def _write_batch(session: Session, batch: Batch, changes: dict[str, Any]) -> Non
         session.execute(_core(Bid), batch.bids)
     if batch.awards:
         session.execute(_core(Award), batch.awards)
+    if batch.changed_awards:
+        session.execute(update(Award), batch.changed_awards)
     latest = case((Mission.sim_time < batch.sim_time, batch.sim_time), else_=Mission.sim_time)
     _update_mission(session, batch.mission_id, {"sim_time": latest, **changes})
 
@@ -246,15 +248,16 @@ def stored_counts(session: Session, mission_id: int) -> Stored:
         .group_by(Bid.auction_id)
     ).all()
     awards = session.execute(
-        select(Award.auction_id, func.count())
+        select(Award.auction_id, Award.outcome)
         .where(Award.mission_id == mission_id)
-        .group_by(Award.auction_id)
+        .order_by(Award.auction_id, Award.idx)
     ).all()
     auctions = session.scalars(select(Auction.auction_id).where(Auction.mission_id == mission_id))
     stored = Stored(events=int(events))
     for aid in auctions:
         stored.bids[aid] = 0
-        stored.awards[aid] = 0
+        stored.awards[aid] = []
     stored.bids.update({aid: int(n) for aid, n in bids})
-    stored.awards.update({aid: int(n) for aid, n in awards})
+    for aid, outcome in awards:
+        stored.awards[aid].append(outcome)
     return stored

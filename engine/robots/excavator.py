@@ -10,7 +10,6 @@ from engine.auction import Allocation
 from engine.context import NEAR
 from engine.geometry import Point, dist
 from engine.messages import Close
-from engine.policies import coalition_partner
 from engine.robots.base import Assignment, Robot
 
 if TYPE_CHECKING:
@@ -198,6 +197,3 @@ class Excavator(Robot):
             site.worker = None
         self.waiting_for = None
         self._arrival = None
-
-    def partner_name(self) -> str | None:
-        return coalition_partner(self.name)
