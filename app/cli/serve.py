@@ -18,8 +18,9 @@ def _fail(command: str, message: str, code: int = USAGE_EXIT) -> NoReturn:
 def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
     """Settings from the environment, overridden by the options given; bad values exit 2."""
     from pydantic import ValidationError
+    from sqlalchemy import create_engine
     from sqlalchemy.engine import make_url
-    from sqlalchemy.exc import ArgumentError
+    from sqlalchemy.exc import ArgumentError, NoSuchModuleError
 
     from app.settings import Settings
 
@@ -36,9 +37,12 @@ def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
     if settings.data_dir.exists() and not settings.data_dir.is_dir():
         _fail(command, f"--data-dir {settings.data_dir}: not a directory")
     try:
-        make_url(settings.database_url)
+        url = make_url(settings.database_url)
+        create_engine(url).dispose()  # loads the dialect and its driver, connects to nothing
     except ArgumentError:
         _fail(command, f"--db {settings.database_url!r}: not a database URL (e.g. sqlite:///x.db)")
+    except (ImportError, NoSuchModuleError) as exc:
+        _fail(command, f"--db: no driver for {url.drivername!r} installed ({exc})")
     return settings
 
 
