@@ -156,6 +156,9 @@ class MissionContext:
         return rec
 
     def close_auction(self, rec: AuctionRecord, status: str, winner: str | None) -> None:
+        for award in rec.awards:
+            if award.outcome == "pending":  # cancelled or superseded while the winner pondered
+                award.outcome = "withdrawn"
         rec.status = status
         rec.closed_at = float(self.env.now)
         rec.allocated_to = winner
