@@ -12,6 +12,7 @@ cli = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # usage errors as one plain line (exit 2), not a Rich box
 )
 cli.command(name="run")(_run.run)
 
