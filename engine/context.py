@@ -89,6 +89,7 @@ class MissionContext:
         self.bids = 0
         self.scanned = bytearray(world.grid.cols * world.grid.rows)
         self.scanned_count = 0
+        self.scan_visits = 0
         self.finished = env.event()
         self.finished_at: float | None = None
         self.ground_serial = 0
@@ -206,6 +207,7 @@ class MissionContext:
         self.log.emit("mineral_recovered", robot=by, x=g.x, y=g.y, mineral=g.id)
 
     def mark_scanned(self, cell: int) -> None:
+        self.scan_visits += 1
         if not self.scanned[cell]:
             self.scanned[cell] = 1
             self.scanned_count += 1

@@ -115,6 +115,7 @@ class Heartbeat(Message):
     load: int = 0
     done: tuple[str, ...] = ()
     adopted: tuple[str, ...] = ()
+    received: tuple[str, ...] = ()
 
 
 class TaskDone(Message):
@@ -165,9 +166,20 @@ class Leaving(Message):
 
 
 class Hello(Message):
-    """A robot joins (added or re-enabled); auctioneers re-announce their open auctions."""
+    """A robot joins (added or re-enabled); auctioneers re-announce their open auctions.
+    A scout with no cells to scan asks for a share of the search (`wants_work`)."""
 
     rtype: str
+    wants_work: bool = False
+
+
+class Handoff(Message):
+    """A scout gives the far part of its unscanned route to a scout that asked for work.
+    The donor keeps it pending until the receiver's heartbeat lists `handoff_id`."""
+
+    to: Name
+    cells: tuple[int, ...]
+    handoff_id: str
 
 
 class PolicyChange(Message):
@@ -190,5 +202,6 @@ ALL_MESSAGES: tuple[type[Message], ...] = (
     Takeover,
     Leaving,
     Hello,
+    Handoff,
     PolicyChange,
 )

@@ -22,6 +22,7 @@ from engine.messages import (
     Award,
     Bid,
     Close,
+    Handoff,
     Heartbeat,
     Hello,
     Holding,
@@ -113,7 +114,13 @@ class Robot:
         self._procs.append(self._life_proc)
         self._spawn(self._tick())
         if joined_late:
-            self.ctx.bus.publish(Hello(sender=self.name, rtype=self.rtype))
+            self.ctx.bus.publish(
+                Hello(sender=self.name, rtype=self.rtype, wants_work=self.wants_work())
+            )
+
+    def wants_work(self) -> bool:
+        """Hook: a scout with nothing to scan asks for a share of the search."""
+        return False
 
     def _spawn(self, gen: Any) -> None:
         """Run a side process of this robot; it ends quietly when the robot fails."""
@@ -447,6 +454,16 @@ class Robot:
 
     def _on_hello(self, msg: Hello) -> None:
         self.house.reannounce_open()
+        self.on_hello_heard(msg)
+
+    def on_hello_heard(self, msg: Hello) -> None:
+        """Hook: scouts share their remaining cells with a newcomer."""
+
+    def on_handoff_heard(self, msg: Handoff) -> None:
+        """Hook: scouts track who scans which cells."""
+
+    def handoffs_received(self) -> tuple[str, ...]:
+        return ()
 
     # --- bidding ------------------------------------------------------------------------
     def busy(self) -> bool:
@@ -549,6 +566,7 @@ class Robot:
                 load=load,
                 done=tuple(self.done_ids),
                 adopted=tuple(self.adopted),
+                received=self.handoffs_received(),
             )
         )
 
@@ -756,6 +774,7 @@ _HANDLERS: dict[type[Message], Any] = {
     Takeover: Robot._on_takeover,
     Leaving: Robot._on_leaving,
     Hello: Robot._on_hello,
+    Handoff: lambda robot, msg: robot.on_handoff_heard(msg),
     Probe: Robot._on_probe,
     Revoke: Robot._on_revoke,
 }

@@ -5,13 +5,17 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from engine.geometry import Point, dist, first_entry
-from engine.messages import Takeover
+from engine.messages import Handoff, Hello, Takeover
 from engine.planning import Path, PlanningError
 from engine.policies import OpenAuction
 from engine.robots.base import Motion, Robot
 
 if TYPE_CHECKING:
     from engine.context import MissionContext, SiteState
+
+
+SHARE_MIN = 4
+"""A scout shares its route only if each half would have at least this many cells."""
 
 
 def site_task_id(x: float, y: float) -> str:
@@ -37,6 +41,10 @@ class Scout(Robot):
         self.cursor = 0
         self.known_tasks: set[str] = set()
         self._rejoining = False
+        self._given: dict[str, tuple[str, list[int], float]] = {}  # handoff id → (to, cells, t)
+        self._received: list[str] = []
+        self._handoffs = 0
+        self._reported = 0  # scan progress in my last heartbeat
 
     def progress(self) -> int:
         return self.cursor
@@ -49,6 +57,7 @@ class Scout(Robot):
             yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
             if self._was_adopted():
                 del self.route[self.cursor :]
+                self.ctx.bus.publish(Hello(sender=self.name, rtype=self.rtype, wants_work=True))
         while True:
             if self.leaving:
                 self.go_quiet()
@@ -136,6 +145,77 @@ class Scout(Robot):
     def enable(self) -> None:
         self._rejoining = True
         super().enable()
+
+    # --- sharing the search with a scout that has none -------------------------------------
+    def heartbeat(self) -> None:
+        self._reported = self.cursor
+        super().heartbeat()
+
+    def remaining(self) -> int:
+        """Cells still to scan beyond the one being driven to."""
+        return max(0, len(self.route) - self.cursor - 1)
+
+    def wants_work(self) -> bool:
+        return self.remaining() == 0
+
+    def handoffs_received(self) -> tuple[str, ...]:
+        return tuple(self._received)
+
+    def on_hello_heard(self, msg: Hello) -> None:
+        if msg.rtype == "scout" and msg.wants_work and self.participating:
+            self._maybe_share(msg.sender)
+
+    def _maybe_share(self, to: str) -> None:
+        """The scout with the longest remaining route (as far as I know) gives the newcomer
+        the far half of it; everyone else stays put."""
+        mine = self.remaining()
+        if mine < 2 * SHARE_MIN:
+            return
+        # rank everyone, me included, by what the last heartbeats said: the same data for all
+        # scouts, so they agree on the donor
+        reported = len(self.route) - self._reported
+        board = self.ctx.liveness
+        for name in self.ctx.robot_type_names("scout"):
+            if name in (self.name, to) or name in self.down or not self.peer_alive(name):
+                continue
+            hb = board.last_heartbeat(self.name, name)
+            theirs = len(self.routes.get(name, [])) - (hb.progress if hb is not None else 0)
+            if theirs > reported or (theirs == reported and name < self.name):
+                return
+        cells = self.route[-(mine // 2) :]
+        del self.route[-(mine // 2) :]
+        self._handoffs += 1
+        hid = f"{self.name}>{to}#{self._handoffs}"
+        self._given[hid] = (to, cells, float(self.env.now))
+        self.routes.setdefault(to, []).extend(cells)
+        self.ctx.emit("handoff", by=self.name, to=to, cells=len(cells), handoff_id=hid)
+        self.ctx.bus.publish(Handoff(sender=self.name, to=to, cells=tuple(cells), handoff_id=hid))
+
+    def on_handoff_heard(self, msg: Handoff) -> None:
+        if msg.to == self.name:
+            if msg.handoff_id not in self._received:
+                self._received.append(msg.handoff_id)
+                self.route.extend(msg.cells)
+                self.wake()
+            return
+        moved = set(msg.cells)
+        donor = self.routes.get(msg.sender, [])
+        self.routes[msg.sender] = [c for c in donor if c not in moved]
+        self.routes.setdefault(msg.to, []).extend(msg.cells)
+
+    def check_peers(self) -> None:
+        super().check_peers()
+        board, proto = self.ctx.liveness, self.ctx.scenario.protocol
+        for hid, (to, cells, t) in list(self._given.items()):
+            hb = board.last_heartbeat(self.name, to)
+            if hb is not None and hid in hb.received:
+                del self._given[hid]  # confirmed: the cells are theirs
+            elif to in self.down or self.env.now - t > 3 * proto.heartbeat_s:
+                # unconfirmed: scan them myself (at worst twice, never not at all)
+                del self._given[hid]
+                self.route.extend(cells)
+                self.ctx.emit("handoff_taken_back", by=self.name, to=to, handoff_id=hid)
+                self.wake()
 
     def _was_adopted(self) -> bool:
         """After a heartbeat period back: did a live peer take over my unscanned cells?"""

@@ -67,9 +67,9 @@ def test_operator_actions_replay_to_the_same_run():
 # One seed's whole event log per policy, pinned. A change here means the engine's behaviour
 # changed: if that was intended, say so in the commit and update the digests.
 GOLDEN = {
-    "fcfs": (4704, "4c43e850372bce7bea85939bab599e696a53136ad30a10eeae03b836e70ed32a"),
-    "coalition": (3746, "a90628b026d65f1a0568308c7e0473dc2efeb4ebd0b109c60a784f64ba5a3de1"),
-    "nearest": (4714, "1870fb8989140e07cb781369a1995806180a69fcab59c7eb714ad25c82e0c12a"),
+    "fcfs": (4704, "e0fc9557b7bc025aceb24a63d3495ec15fae2cb296ec0ccdbe64e49d96f76ba9"),
+    "coalition": (3746, "5d60ec16cb5b7a0dcfafcc28d2a9e688c545023f3ce10ded408d44db61087b1f"),
+    "nearest": (4714, "1a462acc307a2f9b83a65ec3497eea67eec6316c33b7a51c40e6bbdeb9cee0b1"),
 }
 
 

@@ -110,3 +110,45 @@ def test_commands_on_down_or_unknown_robots_are_rejected():
         m.enable_robot("hauler-2")
     with pytest.raises(CommandRejected):
         m.inject_task("excavate", (500.0, 3.0))
+
+
+def scannable(m: Mission) -> int:
+    return sum(wp is not None for wp in m.world.grid.waypoints)
+
+
+def test_an_added_scout_takes_a_share_of_the_search_and_no_cell_is_scanned_twice():
+    alone = Mission(reference_scenario(), 0, "fcfs")
+    alone.run()
+    m = Mission(reference_scenario(), 0, "fcfs")
+    m.advance(300)
+    scout = m.add_robot("scout")
+    m.run()
+    shares = events_of(m, "handoff")
+    assert [s["to"] for s in shares] == [scout] and shares[0]["cells"] > 50
+    assert m.ctx.scan_visits == m.ctx.scanned_count == scannable(m)
+    assert m.metrics()["makespan_s"] < alone.metrics()["makespan_s"]
+
+
+def test_a_share_the_newcomer_never_confirms_is_taken_back_and_scanned():
+    m = Mission(reference_scenario(), 1, "nearest")
+    m.advance(200)
+    scout = m.add_robot("scout")
+    m.advance(m.now + 0.5)  # the hand-over happens, then the newcomer dies before confirming
+    m.disable_robot(scout, "abrupt")
+    m.run()
+    assert m.status == "completed"
+    assert events_of(m, "handoff") and events_of(m, "handoff_taken_back")
+    assert m.ctx.scanned_count == scannable(m)
+
+
+def test_a_returning_scout_whose_cells_were_adopted_asks_for_a_share():
+    m = Mission(reference_scenario(), 2, "fcfs")
+    m.advance(300)
+    m.disable_robot("scout-2", "abrupt")
+    m.advance(500)  # scout-1 adopts scout-2's cells
+    assert events_of(m, "takeover")
+    m.enable_robot("scout-2")
+    m.run()
+    assert m.status == "completed"
+    assert [s["to"] for s in events_of(m, "handoff")] == ["scout-2"]
+    assert m.ctx.scanned_count == scannable(m)
