@@ -16,15 +16,21 @@ from app import logs
 from app.api import errors
 from app.api.deps import Services
 from app.api.routes import api_router
+from app.api.routes import sweeps as sweep_routes
 from app.db.migrate import upgrade
 from app.db.session import is_sqlite_file, make_engine, make_sessionmaker
-from app.middleware import LimitBodyMiddleware, SecurityHeadersMiddleware
+from app.middleware import (
+    LimitBodyMiddleware,
+    RequestContextMiddleware,
+    SecurityHeadersMiddleware,
+)
 from app.ratelimit import RateLimiter
 from app.runner import MissionRunner
 from app.security import resolve_token
 from app.services.commands import RobotCommands
 from app.services.missions import MissionService
 from app.services.store import Store
+from app.services.sweeps import SweepManager
 from app.settings import Settings
 
 log = logging.getLogger("regolith")
@@ -52,6 +58,11 @@ def _lifespan(settings: Settings):  # type: ignore[no-untyped-def]
             runner = MissionRunner(settings, store)
             await runner.start()
             stack.push_async_callback(runner.aclose)
+            sweeps = SweepManager(settings, store)
+            if stale := await sweeps.start():
+                log.warning("%d sweep(s) were left running; marked interrupted", stale)
+            stack.push_async_callback(sweeps.aclose)
+            app.state.sweeps = sweeps
             missions = MissionService(settings, store, runner)
             app.state.services = Services(
                 settings=settings,
@@ -78,6 +89,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     errors.install(app)
     app.include_router(api_router)
+    app.include_router(sweep_routes.router, prefix="/api")
     app.add_middleware(LimitBodyMiddleware, max_bytes=1_000_000)
     app.add_middleware(SecurityHeadersMiddleware)
     if settings.cors_origins:
@@ -85,8 +97,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             CORSMiddleware,
             allow_origins=settings.cors_origins,
             allow_methods=["GET", "POST", "PUT"],
-            allow_headers=["Authorization", "Content-Type"],
+            allow_headers=["Authorization", "Content-Type", "X-Request-ID"],
+            expose_headers=["X-Request-ID"],
         )
+    app.add_middleware(RequestContextMiddleware)  # outermost: every answer has a request id
     if (settings.frontend_dir / "index.html").is_file() or settings.frontend_dir.is_dir():
         app.mount("/", StaticFiles(directory=settings.frontend_dir, html=True), name="dashboard")
     else:

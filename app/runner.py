@@ -204,6 +204,13 @@ class MissionRunner:
         lm.reanchor()
         mission.subscribe(lambda ev: self._on_event(lm, ev))
         self.live[mission_id] = lm
+        log.info(
+            "mission %s live at t=%.1f (%s)",
+            mission_id,
+            mission.now,
+            "paused" if paused else f"speed {'max' if speed is None else speed}",
+            extra={"mission_id": mission_id},
+        )
         self.stepper.wake()
         return lm
 
@@ -267,11 +274,21 @@ class MissionRunner:
             return lm.final_task
         lm.finishing = True
         lm.final_status = status
+        level = logging.ERROR if error is not None else logging.INFO
+        log.log(
+            level,
+            "mission %s ended: %s at t=%.1f%s",
+            lm.id,
+            status,
+            lm.mission.now,
+            f" ({error})" if error else "",
+            extra={"mission_id": lm.id},
+        )
         self.publish_pending(lm)
         try:
             lm.hub.publish_frame({**lm.mission.frame(), "status": status}, last=True)
         except Exception:  # a failed engine may not produce a frame; the status still goes
-            log.exception("final frame of mission %s failed", lm.id)
+            log.exception("final frame of mission %s failed", lm.id, extra={"mission_id": lm.id})
         lm.hub.publish(lm.status_message())
         changes: dict[str, Any] = {"status": status, "ended_at": utcnow()}
         if error is None:
@@ -299,7 +316,7 @@ class MissionRunner:
             snap: dict[str, Any] = lm.mission.snapshot()
             return snap
         except Exception:  # a broken engine state must not lose the rest of the record
-            log.exception("snapshot of mission %s failed", lm.id)
+            log.exception("snapshot of mission %s failed", lm.id, extra={"mission_id": lm.id})
             return None
 
     # -- loop-side tasks ---------------------------------------------------------------

@@ -76,7 +76,9 @@ class Stepper:
                     try:
                         behind |= self._advance(lm)
                     except Exception as exc:  # an engine bug ends that mission, not the server
-                        log.exception("mission %s failed while stepping", lm.id)
+                        log.exception(
+                            "mission %s failed while stepping", lm.id, extra={"mission_id": lm.id}
+                        )
                         lm.crashed = f"{type(exc).__name__}: {exc}"
             if not behind:
                 self._wake.wait(0.005)

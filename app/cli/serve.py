@@ -55,11 +55,20 @@ def serve(
     data_dir: Annotated[
         Path | None, typer.Option("--data-dir", help="Database, token and logs (default ./data).")
     ] = None,
-    log_level: Annotated[str, typer.Option("--log-level", help="uvicorn log level.")] = "info",
+    log_level: Annotated[str, typer.Option("--log-level", help="Log level.")] = "info",
+    log_format: Annotated[
+        str,
+        typer.Option(
+            "--log-format",
+            envvar="REGOLITH_LOG_FORMAT",
+            help="json (one object per line), text, or auto: text on a terminal, else json.",
+        ),
+    ] = "auto",
 ) -> None:
     """Serve the API, the live stream and the dashboard (migrating the database first)."""
     import uvicorn
 
+    from app import logs
     from app.main import create_app
     from app.security import resolve_token
     from app.settings import Settings
@@ -68,6 +77,8 @@ def serve(
         _fail("serve", f"--port {port}: must be between 1 and 65535")
     if log_level not in ("critical", "error", "warning", "info", "debug", "trace"):
         _fail("serve", f"--log-level {log_level}: choose critical|error|warning|info|debug")
+    if log_format not in ("auto", "json", "text"):
+        _fail("serve", f"--log-format {log_format}: choose auto|json|text")
     settings = _settings("serve", db, data_dir)
     assert isinstance(settings, Settings)
     try:
@@ -81,11 +92,18 @@ def serve(
         f"Regolith dashboard: http://{browse}:{port}/   API docs: http://{browse}:{port}/docs"
     )
     typer.echo(f"Operator token: {shown}   (kept in {where})")
+    fmt: logs.LogFormat = "json" if log_format == "json" else "text"
+    logs.configure(
+        logs.default_format() if log_format == "auto" else fmt,
+        "DEBUG" if log_level == "trace" else log_level.upper(),
+    )
     uvicorn.run(
         create_app(settings),
         host=host,
         port=port,
         log_level=log_level,
+        log_config=None,  # keep the handlers configured above
+        access_log=False,  # regolith.access logs every request, with its ids and duration
         ws_max_size=max(65536, settings.ws_max_message),
         timeout_graceful_shutdown=5,
     )
