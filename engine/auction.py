@@ -187,7 +187,7 @@ class AuctionHouse:
             self._announce(rec)
             yield env.timeout(proto.bid_window_s)
             while True:
-                for winner in rank_bids(live.live_bids, live.declined):
+                for winner in self._ranked(rec, live):
                     ack = env.event()
                     live.ack = (winner, ack)
                     rec.awards.append(AwardRecord(env.now, winner))
@@ -246,6 +246,13 @@ class AuctionHouse:
             )
         )
         self.ctx.close_auction(rec, status, winner)
+
+    def _ranked(self, rec: AuctionRecord, live: _Live) -> list[str]:
+        """Award order: the bids ranked (SPEC §5.4), or the policy's oracle's choice."""
+        oracle = self.ctx.policy.allocator()
+        if oracle is None:
+            return rank_bids(live.live_bids, live.declined)
+        return oracle.rank(self.ctx, rec, live.live_bids, live.declined)
 
     def _close(self, rec: AuctionRecord, winner: str) -> None:
         self._publish_close(rec, winner, "closed")

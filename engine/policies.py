@@ -10,10 +10,14 @@ protocol changes.
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from engine.messages import Location, TaskType
+
+if TYPE_CHECKING:
+    from engine.central import Allocator
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,9 +69,50 @@ class Policy:
     def coalitions(self) -> bool:
         return False
 
-    def transport_lead_s(self) -> float:
-        """How long before the bucket fills the excavator auctions its transport (0: when full)."""
+    def transport_lead_s(self, haul_s: float, dig_s: float) -> float:
+        """How long before a bucket is expected to fill the excavator auctions its transport
+        (0: when it is full), given a hauler's straight drive from the plant to the site and
+        the time one dig takes."""
         return 0.0
+
+    def early_transports(self) -> bool:
+        """Can a transport be auctioned before its excavator stands at the site with a full
+        bucket (a positive transport lead)? Then a hauler that arrives first waits there."""
+        return False
+
+    def queue_limit(self, rtype: str) -> int:
+        """How many won tasks a robot of this type may hold beside the one it works on and
+        still bid a finite utility (0: a robot with any task is busy and bids -inf)."""
+        return 0
+
+    def bids_time(self) -> bool:
+        """Bid the negated expected arrival time (seconds: time until free + travel) instead of
+        the negated path length (metres)?"""
+        return False
+
+    def stages(self, rtype: str) -> bool:
+        """Do idle robots of this type move to a staging point while they wait for a task?"""
+        return False
+
+    def staging_target(
+        self,
+        me: str,
+        idle: Sequence[str],
+        scouts: Sequence[Location],
+        plant: Location,
+        is_free: Callable[[float, float], bool],
+    ) -> Location | None:
+        """Where an idle robot waits, given the idle peers of its type it knows of (itself
+        included), the scouts' last heard positions and the map; None: where it is."""
+        return None
+
+    stage_min_m = 5.0
+    """A staging robot moves only when its staging point is farther than this (metres)."""
+
+    def allocator(self) -> Allocator | None:
+        """An oracle that picks auction winners from global state (the centralized baseline);
+        None: the auctioneer ranks the bids (SPEC §5)."""
+        return None
 
 
 def earliest(auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
@@ -134,8 +179,120 @@ class NearestFirst(Policy):
         return True
 
 
+def toward(plant: Location, target: Location, fraction: float) -> Location:
+    return (
+        plant[0] + fraction * (target[0] - plant[0]),
+        plant[1] + fraction * (target[1] - plant[1]),
+    )
+
+
+def staging_point(
+    me: str,
+    idle: Sequence[str],
+    scouts: Sequence[Location],
+    plant: Location,
+    fraction: float,
+    is_free: Callable[[float, float], bool],
+) -> Location | None:
+    """Idle robots (by name) take the scouts in turn; each waits `fraction` of the way from the
+    plant to its scout, or farther out if that point is in a crater. None without scouts."""
+    if not scouts or me not in idle:
+        return None
+    scout = scouts[sorted(idle).index(me) % len(scouts)]
+    steps = 10
+    for k in range(steps + 1):
+        f = fraction + (1.0 - fraction) * k / steps
+        x, y = toward(plant, scout, f)
+        if is_free(x, y):
+            return (x, y)
+    return None
+
+
+class Lookahead(Policy):
+    """Policy 4: act on what is about to happen (see docs/policies.md).
+
+    - a mineral's transport is auctioned `lead_s` before its bucket fills, so a hauler is on
+      its way (or standing by) when it does;
+    - robots bid the negated expected arrival time (time to finish what they hold, then
+      drive) and may hold `queue` tasks beside the current one, so a hauler about to unload
+      can win the next mineral and chain trips without an idle gap;
+    - idle excavators wait `stage_fraction` of the way out to a scout, so they are near when
+      the next site is found;
+    - everyone bids in every open auction and keeps the best of simultaneous awards.
+    """
+
+    name, number = "lookahead", 4
+    description = "lookahead: early transport auctions, time bids, queues, staging"
+    lead = True
+    queue: dict[str, int] = {"hauler": 1, "excavator": 1}  # noqa: RUF012 - read-only table
+    time_bids = True
+    staging: tuple[str, ...] = ()
+    stage_fraction = 0.7
+    bid_all = True
+
+    def bid_targets(
+        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
+    ) -> list[OpenAuction]:
+        return list(auctions) if self.bid_all else earliest(auctions)
+
+    def collects_awards(self) -> bool:
+        return self.bid_all
+
+    def transport_lead_s(self, haul_s: float, dig_s: float) -> float:
+        return haul_s + dig_s if self.lead else 0.0
+
+    def early_transports(self) -> bool:
+        return self.lead
+
+    def queue_limit(self, rtype: str) -> int:
+        return self.queue.get(rtype, 0)
+
+    def bids_time(self) -> bool:
+        return self.time_bids
+
+    def stages(self, rtype: str) -> bool:
+        return rtype in self.staging
+
+    def staging_target(
+        self,
+        me: str,
+        idle: Sequence[str],
+        scouts: Sequence[Location],
+        plant: Location,
+        is_free: Callable[[float, float], bool],
+    ) -> Location | None:
+        return staging_point(me, idle, scouts, plant, self.stage_fraction, is_free)
+
+
+class Central(Policy):
+    """The centralized baseline (number 0): an oracle with global knowledge picks every
+    auction's winner by an optimal assignment (engine/central.py). Robots bid in every open
+    auction, so the records look like the others'; the bids do not decide anything."""
+
+    name, number = "central", 0
+    description = "centralized oracle baseline (optimal assignment, global knowledge)"
+    lead = True  # Policy 4's early transport auctions, so only the allocation differs
+
+    def bid_targets(
+        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
+    ) -> list[OpenAuction]:
+        return list(auctions)
+
+    def transport_lead_s(self, haul_s: float, dig_s: float) -> float:
+        return haul_s + dig_s if self.lead else 0.0
+
+    def early_transports(self) -> bool:
+        return self.lead
+
+    def allocator(self) -> Allocator | None:
+        from engine.central import OracleAllocator
+
+        return OracleAllocator()
+
+
 POLICIES: dict[str, type[Policy]] = {
-    p.name: p for p in (FirstComeFirstServed, AnticipatoryCoalitions, NearestFirst)
+    p.name: p
+    for p in (FirstComeFirstServed, AnticipatoryCoalitions, NearestFirst, Lookahead, Central)
 }
 POLICY_NAMES: dict[int, str] = {p.number: p.name for p in POLICIES.values()}
 

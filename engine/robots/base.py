@@ -43,6 +43,9 @@ if TYPE_CHECKING:
 DONE_MEMORY = 8
 """How many finished task ids a heartbeat repeats, for auctioneers that missed a TaskDone."""
 
+REBID_S = 2.0
+"""A time-bidding robot re-sends a bid when its estimate moved by more than this (seconds)."""
+
 
 @dataclass(frozen=True, slots=True)
 class Assignment:
@@ -216,6 +219,18 @@ class Robot:
 
     def go_to(self, goal: Point) -> Any:
         yield from self.drive(self.ctx.planner.plan(self.pos, goal))
+
+    def drive_until_woken(self, path: Path) -> Any:
+        """Drive along a path, but stop where it is as soon as something wakes the robot (a
+        task won while staging): the rest of the way is not driven."""
+        length = path_length(path)
+        if length <= 0.0:
+            return
+        self.motion = Motion(float(self.env.now), path, length, self.speed)
+        woken = self.wait_for_wake()
+        arrived = self.env.timeout(length / self.speed)
+        yield arrived | woken
+        self._end_motion(length if arrived.triggered else None)
 
     # --- messages -----------------------------------------------------------------------
     def on_message(self, msg: Message) -> None:
@@ -470,7 +485,16 @@ class Robot:
         return self.reserved is not None or self.current is not None or bool(self.queue)
 
     def can_take(self) -> bool:
-        return self.participating and not self.busy()
+        return self.participating and self.has_room()
+
+    def held(self) -> int:
+        """Tasks won and not finished: the current one and the queue."""
+        return (self.current is not None) + len(self.queue)
+
+    def has_room(self) -> bool:
+        """Free to win one more task: nothing reserved and no more held than the policy lets
+        a robot queue (under Policies 1–3, exactly `not busy()`)."""
+        return self.reserved is None and self.held() <= self.ctx.policy.queue_limit(self.rtype)
 
     def in_coalition(self) -> bool:
         """Paired with a live partner under a coalition policy (Policy 2)."""
@@ -488,8 +512,12 @@ class Robot:
         auctions = self.auctions_in_order()
         if not auctions:
             return
-        targets = self.ctx.policy.bid_targets(self.rtype, self.in_coalition(), auctions)
-        busy = self.busy()
+        policy = self.ctx.policy
+        targets = policy.bid_targets(self.rtype, self.in_coalition(), auctions)
+        busy = not self.has_room()
+        if policy.bids_time():
+            self._bid_times(targets, busy)
+            return
         every_round = self.ctx.scenario.protocol.busy_bid == "every_round"
         for a in targets:
             prev = self.my_bids.get(a.auction_id)
@@ -500,6 +528,42 @@ class Robot:
                     self._bid(a, rnd, -math.inf)
             elif prev is None or prev[0] != rnd or not math.isfinite(prev[1]):
                 self._bid(a, rnd, -self.cost_to(a))
+
+    def _bid_times(self, targets: list[OpenAuction], busy: bool) -> None:
+        """Bids of a time-bidding policy: -(expected arrival time), kept up to date.
+
+        A bid is re-sent when the estimate moved by more than `REBID_S`, and a robot that has
+        run out of room withdraws its finite bids with -inf, so a winner is rarely one that must
+        decline.
+        """
+        for a in targets:
+            prev = self.my_bids.get(a.auction_id)
+            rnd = self.rounds.get(a.auction_id, 0)
+            if busy:
+                if prev is None or prev[0] != rnd or math.isfinite(prev[1]):
+                    self._bid(a, rnd, -math.inf)
+                continue
+            utility = -self.eta_to(a)
+            if (
+                prev is None
+                or prev[0] != rnd
+                or not math.isfinite(prev[1])
+                or abs(prev[1] - utility) > REBID_S
+            ):
+                self._bid(a, rnd, utility)
+
+    def eta_to(self, a: OpenAuction) -> float:
+        """Seconds until this robot could stand at the task: finish what it holds, then drive."""
+        wait, start = self.free_at()
+        try:
+            length = path_length(self.ctx.planner.plan(start, a.location))
+        except PlanningError:
+            return math.inf
+        return wait + length / self.speed
+
+    def free_at(self) -> tuple[float, Point]:
+        """When (seconds from now) and where this robot will be free, from its own state."""
+        return 0.0, self.position()[0]
 
     def cost_to(self, a: OpenAuction) -> float:
         """Length of the path this robot would drive to the task (SPEC §5.2); inf if none."""
@@ -688,7 +752,7 @@ class Robot:
         """Offer a task again whose holder failed, released it or dropped it."""
         kind = AUCTION_KINDS.get(self.rtype, "operator")
         location, search = alloc.location, alloc.search_path
-        if hb is not None and hb.load > 0 and alloc.task_id in hb.tasks:
+        if hb is not None and hb.load > 0 and hb.tasks[:1] == (alloc.task_id,):
             # it was carrying the mineral: search along its route from where it was last heard
             location, search = (hb.x, hb.y), hb.path
         elif alloc.task_type == "transport" and not search:

@@ -8,13 +8,32 @@ import simpy
 
 from engine.auction import Allocation
 from engine.context import NEAR
-from engine.geometry import Point, dist
+from engine.geometry import Point, dist, path_length
 from engine.messages import Close
+from engine.planning import PlanningError
 from engine.robots.base import Assignment, Robot
 
 if TYPE_CHECKING:
     from engine.context import SiteState
     from engine.robots.hauler import Hauler
+
+
+def transports_due(
+    pile: int, opened: int, dig_s: float, transfer_s: float, lead_s: float
+) -> tuple[int, float | None]:
+    """At the start of a dig: how many more transports to auction now, and after how many
+    seconds of this dig one more falls due (None: none does).
+
+    `pile` minerals are left, counting the one being dug; `opened` of them already have their
+    transport. Mineral j (0 = this one) is expected to fill its bucket after dig_s + j·(dig_s +
+    transfer_s) seconds and its transport is due `lead_s` before that.
+    """
+    cycle = dig_s + transfer_s
+    j = opened
+    while j < pile and dig_s + j * cycle - lead_s <= 0.0:
+        j += 1
+    due = dig_s + j * cycle - lead_s
+    return j - opened, (due if j < pile and due < dig_s else None)
 
 
 class Excavator(Robot):
@@ -29,6 +48,10 @@ class Excavator(Robot):
         self._arrival: simpy.Event | None = None
         self.partner_here: Hauler | None = None
         self._ground_serial = 0
+        # transports auctioned ahead of their minerals (a lead policy), next mineral first
+        self.ahead: list[str] = []
+        self.early: dict[str, Hauler] = {}  # haulers that came for one of them and stand by
+        self._transport_serial = 0
 
     def load(self) -> int:
         return self.bucket
@@ -42,32 +65,130 @@ class Excavator(Robot):
                 a = self.queue.popleft()
                 self.current = a
                 yield from self.excavate(a)
+            elif self.ctx.policy.stages(self.rtype):
+                yield from self.stage()
             else:
                 self.state = "idle"
                 yield self.wait_for_wake()
 
     def excavate(self, a: Assignment) -> Any:
         self.state = "travelling"
+        self.auction_on_the_way(a)
         yield from self.go_to(a.location)
         site = self.ctx.site_at(a.location)
+        if self.ahead:
+            for r in self.ctx.robots.values():
+                if r.rtype == "hauler" and dist(r.pos, self.pos) <= NEAR:
+                    r.wake()  # a hauler that came ahead of me sees me arrive
         self.auction_ground_minerals()
         if site is None or site.remaining == 0 or site.worker not in (None, self.name):
+            self._drop_ahead()
             self.finish(a, "void")  # nothing here, or another excavator is already digging
             return
         site.worker = site.last_worker = self.name
         try:
             while site.remaining > 0 and not self.leaving:
                 self.state = "digging"
-                yield self.env.timeout(self.ctx.scenario.timing.dig_s)
+                yield from self.dig(site)
                 site.remaining -= 1
                 self.bucket = 1
                 self.minerals_dug += 1
                 self.ctx.emit("dug", robot=self.name, site=site.id, remaining=site.remaining)
-                yield from self.hand_over(site)
+                if self.ahead:
+                    yield from self.hand_over_ahead(site)
+                else:
+                    yield from self.hand_over(site)
         finally:
             if site.worker == self.name:
                 site.worker = None
+            self._drop_ahead()
         self.finish(a, "done" if site.remaining == 0 else "released")
+
+    def dig(self, site: SiteState) -> Any:
+        """Dig one bucket. Under a policy with a transport lead L, the transport of every mineral
+        of the pile is auctioned L seconds before its bucket is expected to fill (one dig plus
+        one transfer per mineral, from now), so its hauler arrives about when it does."""
+        cfg = self.ctx.scenario
+        dig_s = cfg.timing.dig_s
+        haul_s = dist((site.x, site.y), self.ctx.world.plant) / cfg.speeds.hauler
+        lead = self.ctx.policy.transport_lead_s(haul_s, dig_s)
+        if lead <= 0.0:
+            yield self.env.timeout(dig_s)
+            return
+        now, later = transports_due(
+            site.remaining, len(self.ahead), dig_s, cfg.timing.transfer_s, lead
+        )
+        for _ in range(now):
+            self._auction_ahead(site)
+        if later is None:
+            yield self.env.timeout(dig_s)
+        else:
+            yield self.env.timeout(later)
+            self._auction_ahead(site)
+            yield self.env.timeout(dig_s - later)
+
+    def _auction_ahead(self, site: SiteState | Point) -> None:
+        where = site if isinstance(site, tuple) else (site.x, site.y)
+        self._transport_serial += 1
+        task_id = f"{self.name}#t{self._transport_serial}"
+        self.ahead.append(task_id)
+        self.house.open("transport", where, task_id, kind="excavator_hauler")
+
+    def auction_on_the_way(self, a: Assignment) -> None:
+        """Under a transport lead, the first mineral's transport falls due while I drive to the
+        site (a pile holds at least one): auction it then, so a hauler arrives about when I do."""
+        cfg = self.ctx.scenario
+        dig_s = cfg.timing.dig_s
+        haul_s = dist(a.location, self.ctx.world.plant) / cfg.speeds.hauler
+        lead = self.ctx.policy.transport_lead_s(haul_s, dig_s)
+        if lead <= 0.0 or self.ahead:
+            return
+        try:
+            drive_s = path_length(self.ctx.planner.plan(self.pos, a.location)) / self.speed
+        except PlanningError:
+            return
+        due = drive_s + dig_s - lead
+        if due <= 0.0:
+            self._auction_ahead(a.location)
+        else:
+            self._spawn(self._auction_when_due(a, due))
+
+    def _auction_when_due(self, a: Assignment, due: float) -> Any:
+        yield self.env.timeout(due)
+        if self.current is a and self.state == "travelling" and not self.ahead:
+            self._auction_ahead(a.location)
+
+    def hand_over_ahead(self, site: SiteState) -> Any:
+        """Empty the bucket into the bin of any hauler standing by for one of my transports
+        (the earliest such transport takes this mineral); wait if none is here yet."""
+        while self.bucket:
+            if not self.ahead:
+                self._auction_ahead(site)  # more in the pile than expected: one more now
+            for task_id in self.ahead:
+                if task_id not in self.house.allocations and not self._transport_open(task_id):
+                    # its winner dropped it (void, or lost): offer it again
+                    self.house.open("transport", (site.x, site.y), task_id, kind="excavator_hauler")
+            ready = [t for t in self.ahead if t in self.early and self.early[t].standing_by(self)]
+            if ready:
+                task_id = ready[0]
+                hauler = self.early.pop(task_id)
+                self.waiting_for = task_id
+                yield from self.transfer(hauler, site)
+                if not self.bucket:
+                    self.ahead.remove(task_id)
+                self.waiting_for = None
+                continue
+            self._arrival = arrival = self.env.event()
+            self.state = "waiting"
+            yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
+            self._arrival = None
+
+    def _drop_ahead(self) -> None:
+        """Leaving the pile: transports not yet won are withdrawn (the won ones end void)."""
+        for task_id in self.ahead:
+            self._cancel_transport(task_id)
+        self.ahead.clear()
+        self.early.clear()
 
     def hand_over(self, site: SiteState) -> Any:
         """Empty the bucket into a hauler's bin: the waiting partner's, or an auction winner's.
@@ -134,6 +255,62 @@ class Excavator(Robot):
             "pickup", robot=hauler.name, from_robot=self.name, x=self.pos[0], y=self.pos[1]
         )
 
+    def free_at(self) -> tuple[float, Point]:
+        """Done with the site it works (the pile it sees, or an average one it has not seen
+        yet) and every queued site."""
+        here = self.position()[0]
+        if self.current is None and not self.queue:
+            return 0.0, here
+        cfg, v = self.ctx.scenario, self.speed
+        per = cfg.timing.dig_s + cfg.timing.transfer_s
+        unseen = cfg.minerals / cfg.sites * per
+        t, pos = 0.0, here
+        cur = self.current
+        if cur is not None:
+            site = self.ctx.site_at(self.pos) if self.motion is None else None
+            if site is not None and dist(self.pos, cur.location) <= NEAR:
+                t += site.remaining * per + (cfg.timing.transfer_s if self.bucket else 0.0)
+            else:
+                t += dist(here, cur.location) / v + unseen
+            pos = cur.location
+        for a in self.queue:
+            t += dist(pos, a.location) / v + unseen
+            pos = a.location
+        return t, pos
+
+    # --- staging: wait near the search frontier (Policy 4) --------------------------------
+    def stage(self) -> Any:
+        """Idle under a staging policy: drive toward the staging point, or wait a heartbeat."""
+        target = self.staging_point()
+        self.state = "idle"
+        if target is not None and dist(target, self.pos) > self.ctx.policy.stage_min_m:
+            try:
+                path = self.ctx.planner.plan(self.pos, target)
+            except PlanningError:
+                path = ()
+            if path:
+                self.state = "travelling"
+                yield from self.drive_until_woken(path)
+                return
+        yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
+
+    def staging_point(self) -> Point | None:
+        """Where the policy wants me while idle, from the scouts' and excavators' heartbeats."""
+        board = self.ctx.liveness
+        scouts: list[Point] = []
+        for name in self.ctx.robot_type_names("scout"):
+            hb = board.last_heartbeat(self.name, name)
+            if hb is not None and hb.state == "scanning" and self.peer_alive(name):
+                scouts.append((hb.x, hb.y))
+        idle = [self.name]
+        for name in self.ctx.robot_type_names("excavator"):
+            hb = board.last_heartbeat(self.name, name)
+            if name != self.name and hb is not None and not hb.tasks and self.peer_alive(name):
+                idle.append(name)
+        return self.ctx.policy.staging_target(
+            self.name, idle, scouts, self.ctx.world.plant, self.ctx.world.is_free
+        )
+
     # --- physical rendezvous with haulers (they stand beside me) --------------------------
     def hauler_arrived(self, hauler: Hauler, task_id: str) -> bool:
         arrival = self._arrival
@@ -141,7 +318,16 @@ class Excavator(Robot):
         if ready and arrival is not None and not arrival.triggered:
             arrival.succeed(hauler)
             return True
+        if self.alive and task_id in self.ahead:
+            self.early[task_id] = hauler  # it stands by for its mineral
+            if arrival is not None and not arrival.triggered:
+                arrival.succeed(hauler)
+            return True
         return False
+
+    def expects(self, task_id: str) -> bool:
+        """Is this transport for the mineral in my bucket, or one I am about to dig?"""
+        return task_id == self.waiting_for or task_id in self.ahead
 
     def partner_arrived(self, hauler: Hauler) -> None:
         self.partner_here = hauler
@@ -186,6 +372,7 @@ class Excavator(Robot):
             site.worker = None
         self.waiting_for = None
         self._arrival = None
+        self._drop_ahead()
         super().on_revoked()
 
     def drop_loads(self) -> None:
@@ -197,3 +384,5 @@ class Excavator(Robot):
             site.worker = None
         self.waiting_for = None
         self._arrival = None
+        self.ahead.clear()
+        self.early.clear()

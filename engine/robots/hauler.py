@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 import simpy
 
 from engine.context import NEAR
-from engine.geometry import Point, dist, segment_point_distance
+from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
 from engine.robots.base import Assignment, Robot
 
@@ -51,9 +51,11 @@ class Hauler(Robot):
     def transport(self, a: Assignment) -> Any:
         self.state = "travelling"
         yield from self.go_to(a.location)
-        exc = self._excavator_here(lambda e: e.waiting_for == a.task_id)
+        exc = self._excavator_here(lambda e: e.expects(a.task_id))
+        if exc is None and self.ctx.policy.early_transports():
+            exc = yield from self.wait_for_excavator(a)
         if exc is not None and exc.hauler_arrived(self, a.task_id):
-            yield from self.wait_loaded()
+            yield from self.wait_loaded(exc, a.task_id)
         if not self.bin:
             yield from self.pick_from_ground(self.pos)
         if not self.bin and a.search_path:
@@ -65,12 +67,35 @@ class Hauler(Robot):
         yield from self.deliver()
         self.finish(a)
 
-    def wait_loaded(self) -> Any:
-        """Stand by the excavator until it has emptied its bucket into my bin."""
+    def wait_for_excavator(self, a: Assignment) -> Any:
+        """Came for a transport auctioned ahead and the excavator is not here yet: wait for it
+        as long as it could take to drive here from where I last heard of it (and a margin)."""
+        cfg = self.ctx.scenario
+        hb = self.ctx.liveness.last_heartbeat(self.name, a.auctioneer)
+        if hb is None or hb.rtype != "excavator":
+            return None
+        drive_s = dist((hb.x, hb.y), a.location) / cfg.speeds.excavator
+        deadline = hb.t + drive_s + cfg.protocol.failure_timeout_s
         self.state = "waiting"
-        self._loaded = self.env.event()
+        while self.env.now < deadline and self.peer_alive(a.auctioneer):
+            exc = self._excavator_here(lambda e: e.expects(a.task_id))
+            if exc is not None:
+                return exc
+            if self._excavator_here(lambda e: e.name == a.auctioneer) is not None:
+                return None  # it is here and does not expect me: nothing to carry
+            left = deadline - self.env.now
+            yield self.wait_for_wake() | self.env.timeout(min(left, cfg.protocol.heartbeat_s))
+        return None
+
+    def wait_loaded(self, exc: Excavator, task_id: str) -> Any:
+        """Stand by the excavator until it has emptied its bucket into my bin (longer if I came
+        early for a mineral it is still digging, as long as it still expects me)."""
+        self.state = "waiting"
+        self._loaded = loaded = self.env.event()
         limit = self.ctx.scenario.timing.transfer_s + self.ctx.scenario.protocol.failure_timeout_s
-        yield self._loaded | self.env.timeout(limit)
+        yield loaded | self.env.timeout(limit)
+        while not loaded.triggered and exc.alive and task_id in exc.ahead:
+            yield loaded | self.env.timeout(limit)
         self._loaded = None
 
     def can_receive(self, exc: Excavator) -> bool:
@@ -124,6 +149,26 @@ class Hauler(Robot):
                 return r  # type: ignore[return-value]
         return None
 
+    def free_at(self) -> tuple[float, Point]:
+        """Done with what it holds at the plant, after the current trip and every queued one
+        (straight-line estimates for all but the bid's own leg)."""
+        here = self.position()[0]
+        if self.current is None and not self.queue:
+            return 0.0, here
+        timing, v, plant = self.ctx.scenario.timing, self.speed, self.ctx.world.plant
+        t = 0.0
+        cur = self.current
+        if cur is not None:
+            if self.bin:
+                route = self.remaining_route()
+                t += (path_length(route) if len(route) > 1 else dist(here, plant)) / v
+            else:
+                t += (dist(here, cur.location) + dist(cur.location, plant)) / v + timing.transfer_s
+            t += timing.unload_s
+        for a in self.queue:
+            t += 2 * dist(plant, a.location) / v + timing.transfer_s + timing.unload_s
+        return t, plant
+
     # --- Policy 2: follow the partner excavator ------------------------------------------
     def follow_partner(self) -> Any:
         site = self.partner_site
@@ -165,6 +210,15 @@ class Hauler(Robot):
             and self.bin == 0
             and self._loaded is not None
             and self.current is None
+            and dist(self.pos, exc.pos) <= NEAR
+        )
+
+    def standing_by(self, exc: Excavator) -> bool:
+        """Came early for a transport and waits beside this excavator for its bucket?"""
+        return (
+            self.alive
+            and self.bin == 0
+            and self._loaded is not None
             and dist(self.pos, exc.pos) <= NEAR
         )
 

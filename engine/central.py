@@ -1,0 +1,99 @@
+"""The centralized baseline: an oracle allocator with global knowledge.
+
+Every auction still runs on the bus (announce, bids, award, acknowledgement, close), with the
+same robots and the same physics, so its figures compare with the decentralized policies'.
+Only the award differs: instead of ranking the bids it received, the auctioneer asks the
+oracle, which reads the true state of the whole mission — every robot's true position and
+whether it is free, every open auction of every auctioneer — and solves the assignment of
+open tasks to free capable robots that minimises the summed travel time along true planned
+paths (the Hungarian method, `scipy.optimize.linear_sum_assignment`). The auction is awarded
+to the robot the optimal assignment gives it, or waits if it gives it none.
+
+Decision points are the moments an auction asks for its winner: the end of its bid window,
+a late finite bid (a robot became free), and each re-announcement. No robot could know what
+the oracle reads; it is a yardstick for what decentralization costs, not a design to deploy.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Set
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment  # type: ignore[import-untyped]
+
+from engine.geometry import path_length
+from engine.planning import PlanningError
+
+if TYPE_CHECKING:
+    from engine.auction import AuctionRecord
+    from engine.context import MissionContext
+    from engine.robots.base import Robot
+
+FORBIDDEN = 1e12
+"""Cost of a pairing the oracle must not choose (declined, or no path)."""
+
+
+class Allocator(Protocol):
+    """Decides an auction's award order in place of `rank_bids`."""
+
+    def rank(
+        self,
+        ctx: MissionContext,
+        rec: AuctionRecord,
+        bids: Mapping[str, float],
+        excluded: Set[str],
+    ) -> list[str]: ...
+
+
+def optimal_assignment(cost: np.ndarray) -> dict[int, int]:
+    """Row → column of a minimum-cost assignment, leaving out forbidden pairings."""
+    if cost.size == 0:
+        return {}
+    rows, cols = linear_sum_assignment(cost)
+    return {int(r): int(c) for r, c in zip(rows, cols, strict=True) if cost[r, c] < FORBIDDEN}
+
+
+class OracleAllocator:
+    """Optimal assignment of every open task of a type to the free robots able to do it."""
+
+    def rank(
+        self,
+        ctx: MissionContext,
+        rec: AuctionRecord,
+        bids: Mapping[str, float],
+        excluded: Set[str],
+    ) -> list[str]:
+        tasks = [a for a in ctx.auctions if a.status == "open" and a.task_type == rec.task_type]
+        if rec not in tasks:
+            return []
+        promised = {
+            a.awards[-1].winner
+            for a in tasks
+            if a is not rec and a.awards and a.awards[-1].outcome == "pending"
+        }
+        robots = [
+            r
+            for name, r in sorted(ctx.robots.items())
+            if r.capability == rec.task_type and r.can_take() and name not in promised
+        ]
+        if not robots:
+            return []
+        cost = np.full((len(tasks), len(robots)), FORBIDDEN)
+        for j, robot in enumerate(robots):
+            for i, task in enumerate(tasks):
+                if task is rec and robot.name in excluded:
+                    continue
+                cost[i, j] = _travel_s(ctx, robot, task.location)
+        chosen = optimal_assignment(cost).get(tasks.index(rec))
+        return [] if chosen is None else [robots[chosen].name]
+
+
+def _travel_s(ctx: MissionContext, robot: Robot, goal: tuple[float, float]) -> float:
+    """Time to drive from the robot's true position to the goal along the planned path."""
+    try:
+        length = path_length(ctx.planner.plan(robot.position()[0], goal))
+    except PlanningError:
+        return FORBIDDEN
+    return length / robot.speed if math.isfinite(length) else FORBIDDEN
