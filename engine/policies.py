@@ -10,7 +10,7 @@ protocol changes.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -90,25 +90,6 @@ class Policy:
         the negated path length (metres)?"""
         return False
 
-    def stages(self, rtype: str) -> bool:
-        """Do idle robots of this type move to a staging point while they wait for a task?"""
-        return False
-
-    def staging_target(
-        self,
-        me: str,
-        idle: Sequence[str],
-        scouts: Sequence[Location],
-        plant: Location,
-        is_free: Callable[[float, float], bool],
-    ) -> Location | None:
-        """Where an idle robot waits, given the idle peers of its type it knows of (itself
-        included), the scouts' last heard positions and the map; None: where it is."""
-        return None
-
-    stage_min_m = 5.0
-    """A staging robot moves only when its staging point is farther than this (metres)."""
-
     def allocator(self) -> Allocator | None:
         """An oracle that picks auction winners from global state (the centralized baseline);
         None: the auctioneer ranks the bids (SPEC §5)."""
@@ -179,55 +160,24 @@ class NearestFirst(Policy):
         return True
 
 
-def toward(plant: Location, target: Location, fraction: float) -> Location:
-    return (
-        plant[0] + fraction * (target[0] - plant[0]),
-        plant[1] + fraction * (target[1] - plant[1]),
-    )
-
-
-def staging_point(
-    me: str,
-    idle: Sequence[str],
-    scouts: Sequence[Location],
-    plant: Location,
-    fraction: float,
-    is_free: Callable[[float, float], bool],
-) -> Location | None:
-    """Idle robots (by name) take the scouts in turn; each waits `fraction` of the way from the
-    plant to its scout, or farther out if that point is in a crater. None without scouts."""
-    if not scouts or me not in idle:
-        return None
-    scout = scouts[sorted(idle).index(me) % len(scouts)]
-    steps = 10
-    for k in range(steps + 1):
-        f = fraction + (1.0 - fraction) * k / steps
-        x, y = toward(plant, scout, f)
-        if is_free(x, y):
-            return (x, y)
-    return None
-
-
 class Lookahead(Policy):
-    """Policy 4: act on what is about to happen (see docs/policies.md).
+    """Policy 4: act on what is about to happen (rules, reasons, measurements: docs/policies.md).
 
-    - a mineral's transport is auctioned `lead_s` before its bucket fills, so a hauler is on
-      its way (or standing by) when it does;
-    - robots bid the negated expected arrival time (time to finish what they hold, then
-      drive) and may hold `queue` tasks beside the current one, so a hauler about to unload
-      can win the next mineral and chain trips without an idle gap;
-    - idle excavators wait `stage_fraction` of the way out to a scout, so they are near when
-      the next site is found;
+    - every mineral's transport is auctioned one hauler drive (from the plant) plus one dig
+      before its bucket is expected to fill — the first one while the excavator is still on
+      its way — so a hauler stands by when the bucket fills;
+    - robots bid the negated expected arrival time (finish what they hold, then drive) and may
+      hold `queue` tasks beside the current one;
     - everyone bids in every open auction and keeps the best of simultaneous awards.
+
+    The class attributes switch the rules off one at a time, for the measurements.
     """
 
     name, number = "lookahead", 4
-    description = "lookahead: early transport auctions, time bids, queues, staging"
+    description = "lookahead: early transport auctions, arrival-time bids, one-task queues"
     lead = True
     queue: dict[str, int] = {"hauler": 1, "excavator": 1}  # noqa: RUF012 - read-only table
     time_bids = True
-    staging: tuple[str, ...] = ()
-    stage_fraction = 0.7
     bid_all = True
 
     def bid_targets(
@@ -249,19 +199,6 @@ class Lookahead(Policy):
 
     def bids_time(self) -> bool:
         return self.time_bids
-
-    def stages(self, rtype: str) -> bool:
-        return rtype in self.staging
-
-    def staging_target(
-        self,
-        me: str,
-        idle: Sequence[str],
-        scouts: Sequence[Location],
-        plant: Location,
-        is_free: Callable[[float, float], bool],
-    ) -> Location | None:
-        return staging_point(me, idle, scouts, plant, self.stage_fraction, is_free)
 
 
 class Central(Policy):

@@ -220,18 +220,6 @@ class Robot:
     def go_to(self, goal: Point) -> Any:
         yield from self.drive(self.ctx.planner.plan(self.pos, goal))
 
-    def drive_until_woken(self, path: Path) -> Any:
-        """Drive along a path, but stop where it is as soon as something wakes the robot (a
-        task won while staging): the rest of the way is not driven."""
-        length = path_length(path)
-        if length <= 0.0:
-            return
-        self.motion = Motion(float(self.env.now), path, length, self.speed)
-        woken = self.wait_for_wake()
-        arrived = self.env.timeout(length / self.speed)
-        yield arrived | woken
-        self._end_motion(length if arrived.triggered else None)
-
     # --- messages -----------------------------------------------------------------------
     def on_message(self, msg: Message) -> None:
         if not self.alive:

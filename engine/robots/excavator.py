@@ -65,8 +65,6 @@ class Excavator(Robot):
                 a = self.queue.popleft()
                 self.current = a
                 yield from self.excavate(a)
-            elif self.ctx.policy.stages(self.rtype):
-                yield from self.stage()
             else:
                 self.state = "idle"
                 yield self.wait_for_wake()
@@ -277,39 +275,6 @@ class Excavator(Robot):
             t += dist(pos, a.location) / v + unseen
             pos = a.location
         return t, pos
-
-    # --- staging: wait near the search frontier (Policy 4) --------------------------------
-    def stage(self) -> Any:
-        """Idle under a staging policy: drive toward the staging point, or wait a heartbeat."""
-        target = self.staging_point()
-        self.state = "idle"
-        if target is not None and dist(target, self.pos) > self.ctx.policy.stage_min_m:
-            try:
-                path = self.ctx.planner.plan(self.pos, target)
-            except PlanningError:
-                path = ()
-            if path:
-                self.state = "travelling"
-                yield from self.drive_until_woken(path)
-                return
-        yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
-
-    def staging_point(self) -> Point | None:
-        """Where the policy wants me while idle, from the scouts' and excavators' heartbeats."""
-        board = self.ctx.liveness
-        scouts: list[Point] = []
-        for name in self.ctx.robot_type_names("scout"):
-            hb = board.last_heartbeat(self.name, name)
-            if hb is not None and hb.state == "scanning" and self.peer_alive(name):
-                scouts.append((hb.x, hb.y))
-        idle = [self.name]
-        for name in self.ctx.robot_type_names("excavator"):
-            hb = board.last_heartbeat(self.name, name)
-            if name != self.name and hb is not None and not hb.tasks and self.peer_alive(name):
-                idle.append(name)
-        return self.ctx.policy.staging_target(
-            self.name, idle, scouts, self.ctx.world.plant, self.ctx.world.is_free
-        )
 
     # --- physical rendezvous with haulers (they stand beside me) --------------------------
     def hauler_arrived(self, hauler: Hauler, task_id: str) -> bool:
