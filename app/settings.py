@@ -39,6 +39,10 @@ class Settings(BaseSettings):
     viewer_queue: Annotated[int, Field(ge=16, le=1_000_000)] = 2000
     ws_max_message: Annotated[int, Field(ge=64, le=1_048_576)] = 4096
 
+    sweep_workers: Annotated[int, Field(ge=1, le=256)] = 1
+    max_running_sweeps: Annotated[int, Field(ge=1, le=64)] = 1
+    max_sweep_runs: Annotated[int, Field(ge=1, le=1_000_000)] = 1000
+
     rate_limit_per_s: Annotated[float, Field(ge=0, le=100_000)] = 20.0
     rate_limit_burst: Annotated[int, Field(ge=1, le=100_000)] = 60
 

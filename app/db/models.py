@@ -1,4 +1,5 @@
-"""Storage models: missions, their event log, auctions with bids and awards, operator actions.
+"""Storage models: missions, their event log, auctions with bids and awards, operator actions,
+and policy sweeps.
 
 Kept apart from the API schemas (`app/api/schemas.py`); only `app/services/store.py` writes.
 Engine-side identifiers (auction ids, event seq) are natural keys scoped by mission.
@@ -181,3 +182,27 @@ class Action(Base):
     created_at: Mapped[datetime]
 
     mission: Mapped[Mission] = relationship(back_populates="actions")
+
+
+class Sweep(Base):
+    """A policy × seed sweep run as a background job. The runs and derived files live in
+    `<data_dir>/sweeps/<id>/` (the journal is the truth); this row is its status and progress."""
+
+    __tablename__ = "sweeps"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    status: Mapped[str] = mapped_column(String(16), index=True)
+    policies: Mapped[list[Any]]
+    seeds: Mapped[list[Any]]
+    scale: Mapped[int] = mapped_column(Integer)
+    scenario_name: Mapped[str] = mapped_column(String(80))
+    scenario: Mapped[dict[str, Any]]
+    total: Mapped[int] = mapped_column(Integer)
+    done: Mapped[int] = mapped_column(Integer, default=0)
+    failed: Mapped[int] = mapped_column(Integer, default=0)
+    elapsed_s: Mapped[float] = mapped_column(Float, default=0.0)
+    eta_s: Mapped[float | None] = mapped_column(Float)
+    created_at: Mapped[datetime]
+    started_at: Mapped[datetime | None]
+    ended_at: Mapped[datetime | None]
+    error: Mapped[str | None] = mapped_column(String(2000))

@@ -26,7 +26,7 @@ from sqlalchemy import Insert, Table, case, func, insert, select, update
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
-from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, utcnow
+from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, Sweep, utcnow
 from app.services.recorder import Batch, Stored
 
 T = TypeVar("T")
@@ -34,6 +34,7 @@ T = TypeVar("T")
 log = logging.getLogger("regolith.store")
 
 LIVE_STATUSES = ("running", "paused")
+SWEEP_ACTIVE = ("running", "cancelling")
 URGENT, BULK = 0, 1
 CHUNK_ROWS = 100
 _STOP = (2, 0, None, None)
@@ -171,6 +172,19 @@ class Store:
         """Missions left running by a crash cannot be live now: mark them interrupted."""
         return await self._write(_interrupt_stale)
 
+    async def create_sweep(self, fields: dict[str, Any]) -> Sweep:
+        return await self._write(_create_sweep, fields)
+
+    async def update_sweep(
+        self, sweep_id: int, changes: dict[str, Any], urgent: bool = True
+    ) -> None:
+        """A sweep's status (urgent) or its progress (bulk: it may wait behind event batches)."""
+        await self._write(_update_sweep, sweep_id, changes, priority=URGENT if urgent else BULK)
+
+    async def interrupt_stale_sweeps(self) -> int:
+        """Sweeps left running by a stop or crash have no job now: mark them interrupted."""
+        return await self._write(_interrupt_stale_sweeps)
+
 
 def _call(fn: Callable[..., T], args: tuple[Any, ...], session: Session) -> T:
     return fn(session, *args)
@@ -235,6 +249,26 @@ def _update_mission(session: Session, mission_id: int, changes: dict[str, Any]) 
 def _interrupt_stale(session: Session) -> int:
     result = session.execute(
         update(Mission).where(Mission.status.in_(LIVE_STATUSES)).values(status="interrupted")
+    )
+    return int(getattr(result, "rowcount", 0) or 0)
+
+
+def _create_sweep(session: Session, fields: dict[str, Any]) -> Sweep:
+    row = Sweep(created_at=utcnow(), **fields)
+    session.add(row)
+    session.flush()
+    return row
+
+
+def _update_sweep(session: Session, sweep_id: int, changes: dict[str, Any]) -> None:
+    session.execute(update(Sweep).where(Sweep.id == sweep_id).values(**changes))
+
+
+def _interrupt_stale_sweeps(session: Session) -> int:
+    result = session.execute(
+        update(Sweep)
+        .where(Sweep.status.in_(SWEEP_ACTIVE))
+        .values(status="interrupted", eta_s=None, ended_at=utcnow())
     )
     return int(getattr(result, "rowcount", 0) or 0)
 
