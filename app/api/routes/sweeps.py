@@ -1,0 +1,101 @@
+"""Sweeps: start a policy × seed comparison as a background job, watch it, read its results."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Depends, Path, Query, status
+from fastapi.responses import FileResponse
+from starlette.requests import HTTPConnection
+
+from app.api.deps import Operator, Viewer
+from app.api.schemas import ErrorRead
+from app.api.sweep_schemas import SweepCreate, SweepDetail, SweepPage, SweepRead, SweepStatus
+from app.services.sweeps import SweepManager
+
+_ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": ErrorRead, "description": text}
+    for code, text in [
+        (401, "operator token missing (mutating calls)"),
+        (403, "operator token wrong"),
+        (404, "unknown sweep or figure"),
+        (409, "the sweep's state forbids it (not running, not resumable, another engine build)"),
+        (413, "request body too large"),
+        (429, "REGOLITH_MAX_RUNNING_SWEEPS sweeps already running, or the rate limit"),
+    ]
+}
+router = APIRouter(prefix="/sweeps", tags=["sweeps"], responses=_ERRORS)
+
+SweepId = Annotated[int, Path(ge=1, le=2**31 - 1, description="sweep id")]
+FigureName = Annotated[
+    str,
+    Path(
+        pattern=r"^[A-Za-z0-9_-]{1,64}\.(png|svg)$",
+        description="a figure file, e.g. makespan.png",
+    ),
+]
+_MEDIA = {"png": "image/png", "svg": "image/svg+xml"}
+
+
+async def get_sweeps(conn: HTTPConnection) -> SweepManager:
+    manager: SweepManager = conn.app.state.sweeps
+    return manager
+
+
+SweepsDep = Annotated[SweepManager, Depends(get_sweeps)]
+
+
+@router.post("", status_code=status.HTTP_202_ACCEPTED, dependencies=[Operator])
+async def start_sweep(body: SweepCreate, sweeps: SweepsDep) -> SweepRead:
+    """Start every policy × seed in the background; poll `GET /api/sweeps/{id}` for progress."""
+    seeds = body.seed_tuple()
+    fields = await sweeps.create([str(p) for p in body.policies], seeds, body.scale, body.scenario)
+    return SweepRead.model_validate(fields)
+
+
+@router.get("", dependencies=[Viewer])
+async def list_sweeps(
+    sweeps: SweepsDep,
+    status: SweepStatus | None = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
+) -> SweepPage:
+    """Newest first."""
+    items, total = await sweeps.page(status, limit, offset)
+    return SweepPage(
+        items=[SweepRead.model_validate(i) for i in items], total=total, limit=limit, offset=offset
+    )
+
+
+@router.get("/{sweep_id}", dependencies=[Viewer])
+async def get_sweep(
+    sweep_id: SweepId,
+    sweeps: SweepsDep,
+    runs: Annotated[bool, Query(description="false: leave out runs and summary (polling)")] = True,
+) -> SweepDetail:
+    """Progress, the runs so far and, once completed, the summary and the figures' URLs."""
+    return SweepDetail.model_validate(await sweeps.detail(sweep_id, results=runs))
+
+
+@router.get(
+    "/{sweep_id}/figures/{name}",
+    dependencies=[Viewer],
+    response_class=FileResponse,
+    responses={200: {"content": {m: {} for m in _MEDIA.values()}, "description": "the figure"}},
+)
+async def get_figure(sweep_id: SweepId, name: FigureName, sweeps: SweepsDep) -> FileResponse:
+    """A figure of a completed sweep, as PNG or SVG."""
+    path = await sweeps.figure(sweep_id, name)
+    return FileResponse(path, media_type=_MEDIA[path.suffix.lstrip(".")])
+
+
+@router.post("/{sweep_id}/cancel", dependencies=[Operator])
+async def cancel_sweep(sweep_id: SweepId, sweeps: SweepsDep) -> SweepRead:
+    """Stop a running sweep; its finished runs are kept, so it can be resumed later."""
+    return SweepRead.model_validate(await sweeps.cancel(sweep_id))
+
+
+@router.post("/{sweep_id}/resume", status_code=status.HTTP_202_ACCEPTED, dependencies=[Operator])
+async def resume_sweep(sweep_id: SweepId, sweeps: SweepsDep) -> SweepRead:
+    """Continue an interrupted, cancelled or failed sweep; finished runs are never repeated."""
+    return SweepRead.model_validate(await sweeps.resume(sweep_id))

@@ -1,0 +1,482 @@
+"""Sweeps as background jobs: `run_sweep` on a thread of its own, the runs in worker processes.
+
+A sweep is minutes of CPU, so it never runs on the event loop or under the engine gate. Each
+sweep gets one thread that drives `run_sweep` over a process pool it owns
+(`REGOLITH_SWEEP_WORKERS`, default 1, so live missions keep a core); even the derived files
+(statistics, figures) are written in that pool, so matplotlib and scipy never hold the
+server's GIL. The journal in `<data_dir>/sweeps/<id>/` is the truth about finished runs; the
+`sweeps` row holds status and progress, written through the store like every other write.
+Cancel and server stop kill the workers at once: a run in flight was never journaled, so a
+resume simply runs it again.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import json
+import logging
+import math
+import threading
+import time
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager, suppress
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+from starlette.concurrency import run_in_threadpool
+
+from app.db.models import Sweep as SweepRow
+from app.db.models import utcnow
+from app.experiments.journal import MANIFEST, Journal
+from app.experiments.spec import PolicyRef, SpecError, SweepSpec, make_spec, parse_policies
+from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
+from app.services.store import Store
+from app.settings import Settings
+from engine import POLICY_NAMES, Scenario, ScenarioError, reference_scenario, resolve_policy
+
+if TYPE_CHECKING:
+    from app.experiments.runner import Progress
+
+log = logging.getLogger("regolith.sweeps")
+
+SWEEP_DIR = "sweeps"
+FIG_DIR = "figures"
+PROGRESS_EVERY_S = 0.5
+CANCEL_WAIT_S = 10.0
+STOP_WAIT_S = 20.0
+RESUMABLE = ("interrupted", "cancelled", "failed")
+_COLUMNS = (
+    "id", "status", "policies", "seeds", "scale", "scenario_name", "total", "done", "failed",
+    "elapsed_s", "eta_s", "created_at", "started_at", "ended_at", "error",
+)  # fmt: skip
+_FROM_CSV = ("lower_bound_s", "lower_bound_term", "makespan_ratio")
+
+
+@dataclass
+class SweepJob:
+    """A sweep being run: its stop flag and pool, the latest progress from its thread."""
+
+    id: int
+    spec: SweepSpec
+    out_dir: Path
+    stop: threading.Event = field(default_factory=threading.Event)
+    pool: ProcessPoolExecutor | None = None
+    progress: Progress | None = None
+    cancelling: bool = False
+    final: dict[str, Any] | None = None
+    finished: asyncio.Future[BaseException | None] | None = None
+    task: asyncio.Task[None] | None = None
+
+    def set_progress(self, p: Progress) -> None:
+        """run_sweep's callback (job thread): one attribute store, read by the event loop."""
+        self.progress = p
+
+    def live_fields(self) -> dict[str, Any]:
+        if self.final is not None:
+            return self.final
+        out: dict[str, Any] = {"status": "cancelling" if self.cancelling else "running"}
+        if self.progress is not None:
+            out.update(_progress_fields(self.progress))
+        return out
+
+
+def _progress_fields(p: Progress) -> dict[str, Any]:
+    eta = None if p.eta_s is None or not math.isfinite(p.eta_s) else round(p.eta_s, 3)
+    return {
+        "done": p.done,
+        "total": p.total,
+        "failed": p.failed,
+        "elapsed_s": round(p.elapsed_s, 3),
+        "eta_s": eta,
+    }
+
+
+class SweepManager:
+    """Starts, watches, cancels and resumes sweeps; the routes' only handle on them."""
+
+    def __init__(self, settings: Settings, store: Store) -> None:
+        self.settings = settings
+        self.store = store
+        self.jobs: dict[int, SweepJob] = {}
+        self.stopping = False
+        self._starting = 0
+
+    @property
+    def root(self) -> Path:
+        return self.settings.data_dir / SWEEP_DIR
+
+    def out_dir(self, sweep_id: int) -> Path:
+        return self.root / str(sweep_id)
+
+    async def start(self) -> int:
+        """Sweeps left running by the last server had their job die with it."""
+        return await self.store.interrupt_stale_sweeps()
+
+    async def aclose(self) -> None:
+        """Stop every job (its finished runs are kept) and mark it interrupted."""
+        self.stopping = True
+        jobs = list(self.jobs.values())
+        for job in jobs:
+            _halt(job)
+        tasks = [j.task for j in jobs if j.task is not None]
+        if tasks:
+            _, late = await asyncio.wait(tasks, timeout=STOP_WAIT_S)
+            for task in late:  # the row stays "running"; the next start marks it interrupted
+                task.cancel()
+
+    # -- start, cancel, resume ---------------------------------------------------------
+
+    async def create(
+        self, policies: list[str], seeds: tuple[int, ...], scale: int, scenario: Scenario | None
+    ) -> dict[str, Any]:
+        with self._slot():
+            base = scenario or reference_scenario()
+            refs = parse_policies(",".join(policies), resolve_policy, POLICY_NAMES)
+            spec = self._spec(refs, seeds, base, scale)
+            row = await self.store.create_sweep(
+                {
+                    "status": "running",
+                    "policies": [p.name for p in refs],
+                    "seeds": list(seeds),
+                    "scale": scale,
+                    "scenario_name": spec.scenario.name[:80],
+                    "scenario": base.model_dump(mode="json"),
+                    "total": spec.total,
+                    "done": 0,
+                    "failed": 0,
+                    "elapsed_s": 0.0,
+                    "started_at": utcnow(),
+                }
+            )
+            await run_in_threadpool(_set_aside, self.out_dir(row.id))
+            self._launch(row.id, spec)
+        return self.fields(row)
+
+    async def cancel(self, sweep_id: int) -> dict[str, Any]:
+        """Stop a running sweep; answers once its final status is written (or after 10 s)."""
+        job = self.jobs.get(sweep_id)
+        if job is not None and job.final is not None and job.task is not None:
+            await asyncio.wait([job.task])  # it is writing its final status: let it
+            job = None
+        if job is None:
+            row = await self._row(sweep_id)
+            raise Conflict(
+                f"sweep {sweep_id} is {row.status}; only a running sweep can be cancelled"
+            )
+        if not job.cancelling:
+            job.cancelling = True
+            await self.store.update_sweep(sweep_id, {"status": "cancelling"})
+            _halt(job)
+        if job.task is not None:
+            await asyncio.wait([job.task], timeout=CANCEL_WAIT_S)
+        return await self.get(sweep_id)
+
+    async def resume(self, sweep_id: int) -> dict[str, Any]:
+        """Continue an interrupted, cancelled or failed sweep from its journal."""
+        with self._slot():
+            row = await self._row(sweep_id)
+            if sweep_id in self.jobs or row.status not in RESUMABLE:
+                raise Conflict(
+                    f"sweep {sweep_id} is {row.status}; only an interrupted, cancelled or "
+                    "failed sweep can be resumed"
+                )
+            spec = self._stored_spec(row)
+            await run_in_threadpool(_check_build, self.out_dir(sweep_id), sweep_id)
+            changes = {"status": "running", "error": None, "ended_at": None, "eta_s": None}
+            await self.store.update_sweep(sweep_id, changes)
+            self._launch(sweep_id, spec)
+        return await self.get(sweep_id)
+
+    @contextmanager
+    def _slot(self) -> Iterator[None]:
+        """Hold one of the REGOLITH_MAX_RUNNING_SWEEPS places while a sweep is being started."""
+        limit = self.settings.max_running_sweeps
+        if len(self.jobs) + self._starting >= limit:
+            raise LimitExceeded(
+                f"{limit} sweep(s) already running; wait for it to finish, cancel it, or raise "
+                "REGOLITH_MAX_RUNNING_SWEEPS"
+            )
+        self._starting += 1
+        try:
+            yield
+        finally:
+            self._starting -= 1
+
+    def _spec(
+        self, refs: tuple[PolicyRef, ...], seeds: tuple[int, ...], base: Scenario, scale: int
+    ) -> SweepSpec:
+        runs, limit = len(refs) * len(seeds), self.settings.max_sweep_runs
+        if runs > limit:
+            raise Invalid(
+                f"seeds: {len(refs)} policies × {len(seeds)} seeds = {runs} runs, over this "
+                f"server's limit of {limit} per sweep (REGOLITH_MAX_SWEEP_RUNS)",
+                ("body", "seeds"),
+            )
+        try:
+            scaled = base.scaled(scale)
+            return make_spec(refs, seeds, scaled, scale)
+        except (SpecError, ScenarioError) as exc:
+            raise Invalid(str(exc), ("body", "scale")) from None
+
+    def _stored_spec(self, row: SweepRow) -> SweepSpec:
+        try:
+            refs = parse_policies(",".join(row.policies), resolve_policy, POLICY_NAMES)
+            scenario = Scenario.model_validate(row.scenario).scaled(row.scale)
+            return make_spec(refs, tuple(int(s) for s in row.seeds), scenario, row.scale)
+        except (SpecError, ScenarioError, ValueError) as exc:
+            raise Conflict(f"sweep {row.id} cannot be rebuilt on this server: {exc}") from None
+
+    def _launch(self, sweep_id: int, spec: SweepSpec) -> None:
+        loop = asyncio.get_running_loop()
+        job = SweepJob(sweep_id, spec, self.out_dir(sweep_id), finished=loop.create_future())
+        self.jobs[sweep_id] = job
+        workers = self.settings.sweep_workers
+        threading.Thread(
+            target=_work, args=(job, workers, loop), name=f"regolith-sweep-{sweep_id}", daemon=True
+        ).start()
+        job.task = asyncio.create_task(self._supervise(job), name=f"sweep-{sweep_id}")
+
+    async def _supervise(self, job: SweepJob) -> None:
+        """Save progress every half second until the thread ends, then the final status."""
+        assert job.finished is not None
+        saved: Progress | None = None
+        while not job.finished.done():
+            await asyncio.wait([job.finished], timeout=PROGRESS_EVERY_S)
+            current = job.progress
+            if current is not None and current is not saved and not job.finished.done():
+                saved = current
+                await self.store.update_sweep(job.id, _progress_fields(current), urgent=False)
+        status, error = self._verdict(job, job.finished.result())
+        final: dict[str, Any] = {"status": status, "error": error, "ended_at": utcnow()}
+        if job.progress is not None:
+            final.update(_progress_fields(job.progress))
+        final["eta_s"] = None
+        job.final = final
+        try:
+            await self.store.update_sweep(job.id, final)
+        finally:
+            self.jobs.pop(job.id, None)
+        log.info("sweep %d %s (%s of %s runs)", job.id, status, final.get("done"), job.spec.total)
+
+    def _verdict(self, job: SweepJob, outcome: BaseException | None) -> tuple[str, str | None]:
+        if outcome is None:
+            return "completed", None
+        if job.stop.is_set():
+            return ("interrupted" if self.stopping and not job.cancelling else "cancelled"), None
+        from app.experiments.journal import SweepConflict
+        from app.experiments.runner import SweepError
+
+        if not isinstance(outcome, (SweepError, SweepConflict)):
+            log.error("sweep %d failed", job.id, exc_info=outcome)
+        return "failed", f"{type(outcome).__name__}: {outcome}"[:2000]
+
+    # -- reads -------------------------------------------------------------------------
+
+    def fields(self, row: SweepRow) -> dict[str, Any]:
+        """The row's public fields with a running job's fresher progress laid over."""
+        out = {name: getattr(row, name) for name in _COLUMNS}
+        job = self.jobs.get(row.id)
+        if job is not None:
+            out.update(job.live_fields())
+        out["n_seeds"] = len(out["seeds"])
+        return out
+
+    async def _row(self, sweep_id: int) -> SweepRow:
+        row = await self.store.read(_get, sweep_id)
+        if row is None:
+            raise NotFound(f"sweep {sweep_id} not found")
+        return row
+
+    async def get(self, sweep_id: int) -> dict[str, Any]:
+        return self.fields(await self._row(sweep_id))
+
+    async def page(
+        self, status: str | None, limit: int, offset: int
+    ) -> tuple[list[dict[str, Any]], int]:
+        rows, total = await self.store.read(_page, status, limit, offset)
+        return [self.fields(r) for r in rows], total
+
+    async def detail(self, sweep_id: int, results: bool = True) -> dict[str, Any]:
+        """Fields, scenario, the runs so far and, once completed, the summary and figures
+        (without `results`, only the progress: cheap enough to poll every second)."""
+        row = await self._row(sweep_id)
+        out = self.fields(row)
+        out.update(scenario=row.scenario, runs=[], summary=None)
+        if results:
+            done = out["status"] == "completed"
+            out.update(await run_in_threadpool(_results, self.out_dir(sweep_id), row, done))
+        base = f"/api/sweeps/{sweep_id}/{FIG_DIR}"
+        out["figures"] = [
+            {
+                "name": f["name"],
+                "title": f.get("title", f["name"]),
+                "png": f"{base}/{f['name']}.png",
+                "svg": f"{base}/{f['name']}.svg",
+                "verdict": [str(v) for v in _as_list(f.get("verdict"))],
+            }
+            for f in (out["summary"] or {}).get("figures", [])
+        ]
+        return out
+
+    async def figure(self, sweep_id: int, name: str) -> Path:
+        """A figure file of the sweep; the name must stay inside its figures folder."""
+        await self._row(sweep_id)
+        base = (self.out_dir(sweep_id) / FIG_DIR).resolve()
+        path = (base / name).resolve()
+        if path.parent != base or not await run_in_threadpool(path.is_file):
+            raise NotFound(f"sweep {sweep_id} has no figure {name!r}")
+        return path
+
+
+# -- the job thread ------------------------------------------------------------------------
+
+
+def _work(job: SweepJob, workers: int, loop: asyncio.AbstractEventLoop) -> None:
+    """Thread body: run the sweep, then hand the outcome to the event loop."""
+    outcome: BaseException | None = None
+    try:
+        _execute(job, workers)
+    except BaseException as exc:  # reported by the supervisor
+        outcome = exc
+    with suppress(RuntimeError):  # a closed loop: the server did not wait for us
+        loop.call_soon_threadsafe(_settle, job.finished, outcome)
+
+
+def _settle(
+    future: asyncio.Future[BaseException | None] | None, outcome: BaseException | None
+) -> None:
+    if future is not None and not future.done():
+        future.set_result(outcome)
+
+
+def _execute(job: SweepJob, workers: int) -> None:
+    """Runs, then the derived files, all in a pool of `workers` processes this job owns."""
+    from app.experiments.bound import engine_bound
+    from app.experiments.outputs import write_outputs
+    from app.experiments.runner import SweepCancelled, local_pool, run_sweep
+
+    job.pool = pool = local_pool(workers)
+    clean = False
+    try:
+        if job.stop.is_set():
+            raise SweepCancelled("stopped before it started")
+        result = run_sweep(
+            job.spec,
+            job.out_dir,
+            progress=job.set_progress,
+            executor=pool,
+            stop=job.stop.is_set,
+            outputs=False,
+            window=2 * workers,
+        )
+        pool.submit(write_outputs, job.spec, result.records, job.out_dir, engine_bound).result()
+        clean = True
+    finally:
+        pool.shutdown(wait=clean, cancel_futures=True)
+
+
+def _halt(job: SweepJob) -> None:
+    """Ask the job to stop, and end its runs in flight now rather than after them."""
+    job.stop.set()
+    pool = job.pool
+    if pool is None:
+        return
+    terminate = getattr(pool, "terminate_workers", None)  # Python 3.14+
+    if callable(terminate):
+        terminate()
+        return
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        proc.terminate()
+
+
+def _set_aside(out_dir: Path) -> None:
+    """A new sweep starts from an empty folder; one left by a lost database is kept aside."""
+    if out_dir.exists():
+        stale = out_dir.with_name(f"{out_dir.name}.orphan-{int(time.time())}")
+        log.warning("sweep folder %s already exists; moved to %s", out_dir, stale)
+        out_dir.rename(stale)
+
+
+def _check_build(out_dir: Path, sweep_id: int) -> None:
+    """Refuse a resume that would mix two engine builds, before starting a job for it."""
+    from app.experiments.worker import engine_fingerprint
+
+    try:
+        pinned = json.loads((out_dir / MANIFEST).read_text(encoding="utf-8")).get("engine")
+    except (OSError, ValueError, AttributeError):
+        return  # no runs yet: nothing to mix
+    if pinned is not None and pinned != engine_fingerprint():
+        raise Conflict(
+            f"sweep {sweep_id} ran on engine build {pinned}, this server runs "
+            f"{engine_fingerprint()}; results of two builds are never mixed: start a new sweep"
+        )
+
+
+# -- reads (thread pool) -------------------------------------------------------------------
+
+
+def _get(session: Session, sweep_id: int) -> SweepRow | None:
+    return session.get(SweepRow, sweep_id)
+
+
+def _page(
+    session: Session, status: str | None, limit: int, offset: int
+) -> tuple[list[SweepRow], int]:
+    stmt = select(SweepRow).order_by(SweepRow.id.desc())
+    count = select(func.count()).select_from(SweepRow)
+    if status is not None:
+        stmt = stmt.where(SweepRow.status == status)
+        count = count.where(SweepRow.status == status)
+    return list(session.scalars(stmt.limit(limit).offset(offset))), int(session.scalar(count) or 0)
+
+
+def _results(out_dir: Path, row: SweepRow, completed: bool) -> dict[str, Any]:
+    """The runs journaled so far (the `regolith run --json` metrics plus policy and seed) and,
+    for a completed sweep, summary.json and each run's lower bound from runs.csv."""
+    order = {name: i for i, name in enumerate(row.policies)}
+    seeds = set(row.seeds)
+    records = [
+        r for r in Journal(out_dir).load().values() if r["policy"] in order and r["seed"] in seeds
+    ]
+    records.sort(key=lambda r: (order[r["policy"]], r["seed"]))
+    runs = [{**r.get("metrics", {}), "policy": r["policy"], "seed": r["seed"]} for r in records]
+    summary = None
+    if completed:
+        try:
+            summary = json.loads((out_dir / "summary.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            summary = None
+        _add_bounds(runs, out_dir / "runs.csv")
+    return {"runs": runs, "summary": summary}
+
+
+def _add_bounds(runs: list[dict[str, Any]], path: Path) -> None:
+    try:
+        with path.open(encoding="utf-8", newline="") as fh:
+            rows = {(r["policy"], int(r["seed"])): r for r in csv.DictReader(fh)}
+    except (OSError, KeyError, ValueError):
+        return
+    for run in runs:
+        found = rows.get((run["policy"], run["seed"]), {})
+        for col in _FROM_CSV:
+            if col in found:
+                run[col] = _number(found[col]) if found[col] else None
+
+
+def _number(text: str) -> float | str:
+    try:
+        value = float(text)
+    except ValueError:
+        return text
+    return value if math.isfinite(value) else text
+
+
+def _as_list(value: Any) -> list[Any]:
+    if value is None:
+        return []
+    return list(value) if isinstance(value, (list, tuple)) else [value]

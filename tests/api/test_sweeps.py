@@ -1,0 +1,180 @@
+"""Sweeps over the API: a background job with stored progress, results and figures, limits,
+cancel, and resume after a cancel or a server stop. Real server, real SQLite, real engine on
+a small scenario (each run ~0.3 s)."""
+
+from __future__ import annotations
+
+import sqlite3
+from contextlib import closing
+from pathlib import Path
+from typing import Any
+
+import httpx
+
+from tests.api.conftest import LiveServer, wait_for
+
+SMALL: dict[str, Any] = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
+
+
+def _start(api: httpx.Client, **body: Any) -> dict[str, Any]:
+    res = api.post("/api/sweeps", json={"scenario": SMALL, **body})
+    assert res.status_code == 202, res.text
+    sweep: dict[str, Any] = res.json()
+    return sweep
+
+
+def _until(api: httpx.Client, sid: int, *statuses: str, seen: list[Any] | None = None) -> Any:
+    def probe() -> dict[str, Any] | None:
+        s: dict[str, Any] = api.get(f"/api/sweeps/{sid}").json()
+        if seen is not None:
+            seen.append(s)
+        return s if s["status"] in statuses else None
+
+    return wait_for(probe, timeout=60)
+
+
+def _stored_done(server: LiveServer, sid: int) -> int:
+    with closing(sqlite3.connect(Path(server.settings.data_dir) / "regolith.db")) as db:
+        done: int = db.execute("select done from sweeps where id = ?", (sid,)).fetchone()[0]
+        return done
+
+
+def test_sweep_runs_in_the_background_and_serves_its_results(
+    server: LiveServer, api: httpx.Client
+) -> None:
+    started = _start(api, policies=[1, "coalition"], seeds="0-1")
+    assert started["status"] == "running"
+    assert (started["policies"], started["seeds"], started["total"]) == (
+        ["fcfs", "coalition"],
+        [0, 1],
+        4,
+    )
+    sid = started["id"]
+    seen: list[dict[str, Any]] = []
+    done = _until(api, sid, "completed", "failed", seen=seen)
+    assert done["status"] == "completed", done["error"]
+    assert (done["done"], done["total"], done["failed"], done["eta_s"]) == (4, 4, 0, None)
+    counts = [s["done"] for s in seen]
+    assert counts == sorted(counts)  # progress only grows
+    assert any(0 < s["done"] < 4 and s["eta_s"] is not None for s in seen), counts
+
+    assert len(done["runs"]) == 4
+    assert [(r["policy"], r["seed"]) for r in done["runs"]] == [
+        ("fcfs", 0),
+        ("fcfs", 1),
+        ("coalition", 0),
+        ("coalition", 1),
+    ]
+    for run in done["runs"]:
+        assert run["makespan_s"] > 0 and set(run["distance"]) >= {"scout", "excavator", "hauler"}
+        assert run["makespan_ratio"] >= 1
+    summary = done["summary"]
+    assert summary["policies"] and summary["metrics"]["makespan_s"]
+    names = {f["name"] for f in done["figures"]}
+    assert {"makespan", "distance", "auction_open"} <= names
+    fig = next(f for f in done["figures"] if f["name"] == "makespan")
+    assert fig["verdict"] and fig["png"] == f"/api/sweeps/{sid}/figures/makespan.png"
+    png = api.get(fig["png"])
+    assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+    assert png.content.startswith(b"\x89PNG")
+    svg = api.get(fig["svg"])
+    assert svg.headers["content-type"].startswith("image/svg+xml") and b"<svg" in svg.content
+
+    light = api.get(f"/api/sweeps/{sid}", params={"runs": "false"}).json()
+    assert (light["runs"], light["summary"], light["done"]) == ([], None, 4)
+
+    listed = api.get("/api/sweeps").json()
+    assert listed["total"] == 1 and listed["items"][0]["id"] == sid
+    assert listed["items"][0]["status"] == "completed"
+    assert api.get("/api/sweeps", params={"status": "running"}).json()["total"] == 0
+    out = Path(server.settings.data_dir) / "sweeps" / str(sid)
+    assert (out / "runs.csv").read_text().count("\n") == 5
+    assert api.post(f"/api/sweeps/{sid}/resume").status_code == 409  # nothing left to do
+    assert api.post(f"/api/sweeps/{sid}/cancel").status_code == 409
+
+
+def test_sweep_requests_are_checked(server: LiveServer, api: httpx.Client) -> None:
+    with server.client(token=False) as anon:
+        assert anon.post("/api/sweeps", json={"seeds": "0"}).status_code == 401
+        assert anon.get("/api/sweeps").status_code == 200  # reads are public
+        assert anon.post("/api/sweeps/1/cancel").status_code == 401
+
+    def refused(body: dict[str, Any], field: str) -> str:
+        res = api.post("/api/sweeps", json=body)
+        assert res.status_code == 422, res.text
+        message: str = res.json()["message"]
+        assert f"body.{field}" in message, message
+        return message
+
+    assert "empty" in refused({"seeds": "5-2"}, "seeds")
+    refused({"seeds": "0-x"}, "seeds")
+    refused({"seeds": {"from": 5, "to": 2}}, "seeds")
+    assert "1000" in refused({"policies": [1, 2], "seeds": "0-999"}, "seeds")  # 2000 runs
+    refused({"seeds": "0-99999999999"}, "seeds")
+    refused({"policies": ["bogus"]}, "policies")
+    refused({"policies": []}, "policies")
+    refused({"scale": 0}, "scale")
+    assert api.get("/api/sweeps").json()["total"] == 0  # nothing was started
+
+    assert api.get("/api/sweeps/99").status_code == 404
+    assert api.post("/api/sweeps/99/cancel").status_code == 404
+    assert api.post("/api/sweeps/99/resume").status_code == 404
+    assert api.get("/api/sweeps/99/figures/makespan.png").status_code == 404
+
+
+def test_figure_names_cannot_leave_the_figures_folder(
+    server: LiveServer, api: httpx.Client
+) -> None:
+    sid = _start(api, policies=[1], seeds="0")["id"]
+    assert _until(api, sid, "completed", "failed")["status"] == "completed"
+    assert api.get(f"/api/sweeps/{sid}/figures/makespan.png").status_code == 200
+    for name in [
+        "..%2Fsweep.json",
+        "..%2F..%2Fregolith.db",
+        "%2E%2E%2Fsummary.json",
+        "sweep.json",
+        "report.md",
+        "..%5Csweep.json",
+        "makespan.png%00.svg",
+    ]:
+        res = api.get(f"/api/sweeps/{sid}/figures/{name}")
+        assert res.status_code in (404, 422), (name, res.status_code)
+        assert b"scenario_hash" not in res.content and b"SQLite" not in res.content
+    assert api.get(f"/api/sweeps/{sid}/figures/nothing.png").status_code == 404
+
+
+def test_cancel_then_resume_finishes_without_repeating_a_run(
+    server: LiveServer, api: httpx.Client
+) -> None:
+    sid = _start(api, policies=["fcfs"], seeds="0-7")["id"]
+    second = api.post("/api/sweeps", json={"seeds": "0"})
+    assert second.status_code == 429 and "already running" in second.json()["detail"]
+    wait_for(lambda: _stored_done(server, sid) >= 1)  # progress reaches the database as it runs
+    cancelled = api.post(f"/api/sweeps/{sid}/cancel")
+    assert cancelled.status_code == 200, cancelled.text
+    assert cancelled.json()["status"] == "cancelled"
+    kept = cancelled.json()["done"]
+    assert 1 <= kept < 8
+    assert api.post(f"/api/sweeps/{sid}/cancel").status_code == 409
+
+    resumed = api.post(f"/api/sweeps/{sid}/resume")
+    assert resumed.status_code == 202 and resumed.json()["status"] == "running"
+    done = _until(api, sid, "completed", "failed")
+    assert done["status"] == "completed" and done["done"] == 8
+    journal = Path(server.settings.data_dir) / "sweeps" / str(sid) / "runs.jsonl"
+    assert len(journal.read_text().splitlines()) == 8  # each run exactly once
+
+
+def test_a_sweep_stopped_with_the_server_is_interrupted_and_resumes(server: LiveServer) -> None:
+    with server.client() as api:
+        sid = _start(api, policies=["nearest"], seeds="0-7")["id"]
+        wait_for(lambda: api.get(f"/api/sweeps/{sid}").json()["done"] >= 2)
+    server.restart()
+    with server.client() as api:
+        stopped = api.get(f"/api/sweeps/{sid}").json()
+        assert stopped["status"] == "interrupted"
+        assert 2 <= stopped["done"] < 8  # progress was stored
+        resumed = api.post(f"/api/sweeps/{sid}/resume")
+        assert resumed.status_code == 202, resumed.text
+        done = _until(api, sid, "completed", "failed")
+        assert done["status"] == "completed" and len(done["runs"]) == 8
