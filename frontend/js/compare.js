@@ -3,12 +3,13 @@
 import { $, h, fmt } from "./dom.js";
 import { get, qs } from "./api.js";
 import { barChart, stripChart } from "./charts.js";
-import { KIND_LABEL, POLICY_COLOUR, POLICY_LABEL } from "./palette.js";
-
-const SHORT = { fcfs: "FCFS", coalition: "Coalitions", nearest: "Nearest" };
+import { KIND_LABEL, POLICY_COLOUR } from "./palette.js";
 import { missionMetrics, shortId } from "./missions.js";
+import { ORDER, SweepPanel, policyLabel } from "./sweeps.js";
 
-const POLICIES = ["fcfs", "coalition", "nearest"];
+const SHORT = { fcfs: "FCFS", coalition: "Coalitions", nearest: "Nearest", lookahead: "Lookahead", central: "Central" };
+const EXTRA_COLOUR = { lookahead: "#cc79a7", central: "#f0e442" }; // Okabe–Ito, after the three research policies
+const colour = (p) => POLICY_COLOUR[p] || EXTRA_COLOUR[p] || "#a3b1c2";
 const TYPES = ["scout", "excavator", "hauler"];
 const KINDS = ["scout_excavator", "excavator_hauler"];
 
@@ -29,17 +30,26 @@ export class ComparePage {
     this.missions = [];
     this.selected = new Set();
     this.metrics = new Map(); // mission id -> metrics
-    this.sweep = null;
+    this.sweep = null; // a picked sweep's runs, shown instead of the missions
+    this.sweepId = null;
     this.touched = false;
+    this.sweeps = new SweepPanel({
+      onPick: (detail) => {
+        this.sweep = detail ? detail.runs || [] : null;
+        this.sweepId = detail ? detail.id : null;
+        this.draw();
+      },
+    });
     $("#compare-all").addEventListener("click", () => {
       for (const m of this.missions) this.selected.add(m.id);
+      this.dropSweep();
       this.renderList();
       this.update();
     });
     $("#compare-none").addEventListener("click", () => {
       this.touched = true;
       this.selected.clear();
-      this.sweep = null;
+      this.dropSweep();
       this.renderList();
       this.update();
     });
@@ -56,8 +66,14 @@ export class ComparePage {
     for (const m of this.missions) if (m.metrics) this.metrics.set(m.id, m.metrics);
     if (!this.touched) for (const m of this.missions) this.selected.add(m.id); // all, until the user picks
     this.renderList();
-    this.loadSweeps();
+    this.sweeps.show();
     this.update();
+  }
+
+  dropSweep() {
+    this.sweep = null;
+    this.sweepId = null;
+    this.sweeps.clear();
   }
 
   renderList() {
@@ -76,55 +92,19 @@ export class ComparePage {
               this.touched = true;
               if (e.target.checked) this.selected.add(m.id);
               else this.selected.delete(m.id);
-              this.sweep = null;
+              this.dropSweep();
               this.update();
             },
           }),
         ),
         h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
-        h("td", {}, POLICY_LABEL[m.policy] || m.policy),
+        h("td", {}, policyLabel(m.policy)),
         h("td", { class: "num" }, m.seed),
         h("td", { class: "num" }, fmt((m.metrics || this.metrics.get(m.id))?.makespan_s, 0)),
       ),
     );
     if (!rows.length) rows.push(h("tr", {}, h("td", { colspan: 5, class: "muted" }, "No completed missions yet.")));
     $("#compare-table tbody").replaceChildren(...rows);
-  }
-
-  async loadSweeps() {
-    const box = $("#sweep-pick");
-    box.replaceChildren();
-    let sweeps;
-    try {
-      // ask the schema first: probing a missing route would log a 404 in the console
-      const spec = await fetch("/openapi.json").then((r) => (r.ok ? r.json() : { paths: {} }));
-      if (!spec.paths || !("/api/sweeps" in spec.paths)) return;
-      const data = await get("/sweeps");
-      sweeps = Array.isArray(data) ? data : data.items || [];
-    } catch {
-      return; // no sweep API on this server
-    }
-    if (!sweeps.length) return;
-    const sel = h(
-      "select",
-      { "aria-label": "Sweep" },
-      h("option", { value: "" }, "—"),
-      sweeps.map((s) => h("option", { value: s.id }, `${s.id} (${(s.policies || []).join(", ")} × ${s.seeds?.length ?? s.n_seeds ?? "?"} seeds)`)),
-    );
-    sel.addEventListener("change", async () => {
-      if (!sel.value) {
-        this.sweep = null;
-        return this.update();
-      }
-      try {
-        const s = await get(`/sweeps/${encodeURIComponent(sel.value)}`);
-        this.sweep = s.runs || s.results || [];
-      } catch {
-        this.sweep = [];
-      }
-      return this.update();
-    });
-    box.append(h("label", {}, "Or a sweep", sel));
   }
 
   async update() {
@@ -149,19 +129,21 @@ export class ComparePage {
 
   draw() {
     const runs = this.runs();
-    const by = Object.fromEntries(POLICIES.map((p) => [p, runs.filter((r) => r.policy === p)]));
-    const present = POLICIES.filter((p) => by[p].length);
-    $("#compare-n").textContent = runs.length ? `· ${runs.length} runs` : "";
-    const empty = "pick finished missions";
+    const rank = (p) => (ORDER.includes(p) ? ORDER.indexOf(p) : ORDER.length);
+    const present = [...new Set(runs.map((r) => r.policy))].filter(Boolean).sort((a, b) => rank(a) - rank(b) || a.localeCompare(b));
+    const by = Object.fromEntries(present.map((p) => [p, runs.filter((r) => r.policy === p)]));
+    const source = this.sweep ? `sweep ${this.sweepId} · ` : "";
+    $("#compare-n").textContent = runs.length ? `· ${source}${runs.length} runs` : "";
+    const empty = this.sweep ? "no finished runs in this sweep yet" : "pick finished missions";
     stripChart(
       $("#cmp-makespan"),
-      present.map((p) => ({ label: SHORT[p], colour: POLICY_COLOUR[p], values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
+      present.map((p) => ({ label: SHORT[p] || p, colour: colour(p), values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
       { emptyText: empty },
     );
     const bars = (getter) =>
       present.map((p) => {
         const ci = meanCi(by[p].map(getter).filter(Number.isFinite));
-        return { name: POLICY_LABEL[p], value: ci ? ci.mean : 0, colour: POLICY_COLOUR[p], err: ci && ci.n > 1 ? [ci.lo, ci.hi] : undefined };
+        return { name: policyLabel(p), value: ci ? ci.mean : 0, colour: colour(p), err: ci && ci.n > 1 ? [ci.lo, ci.hi] : undefined };
       });
     barChart(
       $("#cmp-distance"),
@@ -184,9 +166,11 @@ export class ComparePage {
       if (!ci) return "–";
       return ci.n > 1 ? `${fmt(ci.mean, d)} ± ${fmt(ci.hi - ci.mean, d)}` : fmt(ci.mean, d);
     };
+    const ratio = present.some((p) => by[p].some((r) => Number.isFinite(r.makespan_ratio)));
     const rows = [
       ["runs", (rs) => String(rs.length)],
       ["makespan (s)", (rs) => cell(rs.map((r) => r.makespan_s))],
+      ...(ratio ? [["makespan / lower bound", (rs) => cell(rs.map((r) => r.makespan_ratio), 2)]] : []),
       ...TYPES.map((t) => [`distance ${t} (m)`, (rs) => cell(rs.map((r) => r.distance?.[t]))]),
       ...KINDS.map((k) => [`open time ${KIND_LABEL[k]} (s)`, (rs) => cell(rs.map((r) => r.auction_open_s?.[k]?.mean), 2)]),
       ["auctions", (rs) => cell(rs.map((r) => r.auctions))],
@@ -196,7 +180,7 @@ export class ComparePage {
     ];
     table.replaceChildren(
       h("caption", { class: "sr-only" }, "Mean ± 95% confidence interval per policy"),
-      h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "mean ± 95% CI"), present.map((p) => h("th", { scope: "col", class: "num", style: `color:${POLICY_COLOUR[p]}` }, POLICY_LABEL[p])))),
+      h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "mean ± 95% CI"), present.map((p) => h("th", { scope: "col", class: "num", style: `color:${colour(p)}` }, policyLabel(p))))),
       h("tbody", {}, rows.map(([label, f]) => h("tr", {}, h("th", { scope: "row" }, label), present.map((p) => h("td", { class: "num" }, f(by[p])))))),
     );
   }
