@@ -7,22 +7,17 @@ sweep gets one thread that drives `run_sweep` over a process pool it owns
 server's GIL. The journal in `<data_dir>/sweeps/<id>/` is the truth about finished runs; the
 `sweeps` row holds status and progress, written through the store like every other write.
 Cancel and server stop kill the workers at once: a run in flight was never journaled, so a
-resume simply runs it again.
+resume simply runs it again. The thread side is `sweep_job.py`; reading a sweep's folder for
+the API is `sweep_files.py`.
 """
 
 from __future__ import annotations
 
 import asyncio
-import csv
-import json
 import logging
-import math
 import threading
-import time
 from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager, suppress
-from dataclasses import dataclass, field
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -32,10 +27,11 @@ from starlette.concurrency import run_in_threadpool
 
 from app.db.models import Sweep as SweepRow
 from app.db.models import utcnow
-from app.experiments.journal import MANIFEST, Journal
 from app.experiments.spec import PolicyRef, SpecError, SweepSpec, make_spec, parse_policies
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.store import Store
+from app.services.sweep_files import check_build, figure_links, read_results, set_aside
+from app.services.sweep_job import SweepJob, halt, progress_fields, work
 from app.settings import Settings
 from engine import POLICY_NAMES, Scenario, ScenarioError, reference_scenario, resolve_policy
 
@@ -54,46 +50,6 @@ _COLUMNS = (
     "id", "status", "policies", "seeds", "scale", "scenario_name", "total", "done", "failed",
     "elapsed_s", "eta_s", "created_at", "started_at", "ended_at", "error",
 )  # fmt: skip
-_FROM_CSV = ("lower_bound_s", "lower_bound_term", "makespan_ratio")
-
-
-@dataclass
-class SweepJob:
-    """A sweep being run: its stop flag and pool, the latest progress from its thread."""
-
-    id: int
-    spec: SweepSpec
-    out_dir: Path
-    stop: threading.Event = field(default_factory=threading.Event)
-    pool: ProcessPoolExecutor | None = None
-    progress: Progress | None = None
-    cancelling: bool = False
-    final: dict[str, Any] | None = None
-    finished: asyncio.Future[BaseException | None] | None = None
-    task: asyncio.Task[None] | None = None
-
-    def set_progress(self, p: Progress) -> None:
-        """run_sweep's callback (job thread): one attribute store, read by the event loop."""
-        self.progress = p
-
-    def live_fields(self) -> dict[str, Any]:
-        if self.final is not None:
-            return self.final
-        out: dict[str, Any] = {"status": "cancelling" if self.cancelling else "running"}
-        if self.progress is not None:
-            out.update(_progress_fields(self.progress))
-        return out
-
-
-def _progress_fields(p: Progress) -> dict[str, Any]:
-    eta = None if p.eta_s is None or not math.isfinite(p.eta_s) else round(p.eta_s, 3)
-    return {
-        "done": p.done,
-        "total": p.total,
-        "failed": p.failed,
-        "elapsed_s": round(p.elapsed_s, 3),
-        "eta_s": eta,
-    }
 
 
 class SweepManager:
@@ -122,7 +78,7 @@ class SweepManager:
         self.stopping = True
         jobs = list(self.jobs.values())
         for job in jobs:
-            _halt(job)
+            halt(job)
         tasks = [j.task for j in jobs if j.task is not None]
         if tasks:
             _, late = await asyncio.wait(tasks, timeout=STOP_WAIT_S)
@@ -153,7 +109,7 @@ class SweepManager:
                     "started_at": utcnow(),
                 }
             )
-            await run_in_threadpool(_set_aside, self.out_dir(row.id))
+            await run_in_threadpool(set_aside, self.out_dir(row.id))
             self._launch(row.id, spec)
         return self.fields(row)
 
@@ -171,7 +127,7 @@ class SweepManager:
         if not job.cancelling:
             job.cancelling = True
             await self.store.update_sweep(sweep_id, {"status": "cancelling"})
-            _halt(job)
+            halt(job)
         if job.task is not None:
             await asyncio.wait([job.task], timeout=CANCEL_WAIT_S)
         return await self.get(sweep_id)
@@ -186,7 +142,7 @@ class SweepManager:
                     "failed sweep can be resumed"
                 )
             spec = self._stored_spec(row)
-            await run_in_threadpool(_check_build, self.out_dir(sweep_id), sweep_id)
+            await run_in_threadpool(check_build, self.out_dir(sweep_id), sweep_id)
             changes = {"status": "running", "error": None, "ended_at": None, "eta_s": None}
             await self.store.update_sweep(sweep_id, changes)
             self._launch(sweep_id, spec)
@@ -237,7 +193,7 @@ class SweepManager:
         self.jobs[sweep_id] = job
         workers = self.settings.sweep_workers
         threading.Thread(
-            target=_work, args=(job, workers, loop), name=f"regolith-sweep-{sweep_id}", daemon=True
+            target=work, args=(job, workers, loop), name=f"regolith-sweep-{sweep_id}", daemon=True
         ).start()
         job.task = asyncio.create_task(self._supervise(job), name=f"sweep-{sweep_id}")
 
@@ -250,11 +206,11 @@ class SweepManager:
             current = job.progress
             if current is not None and current is not saved and not job.finished.done():
                 saved = current
-                await self.store.update_sweep(job.id, _progress_fields(current), urgent=False)
+                await self.store.update_sweep(job.id, progress_fields(current), urgent=False)
         status, error = self._verdict(job, job.finished.result())
         final: dict[str, Any] = {"status": status, "error": error, "ended_at": utcnow()}
         if job.progress is not None:
-            final.update(_progress_fields(job.progress))
+            final.update(progress_fields(job.progress))
         final["eta_s"] = None
         job.final = final
         try:
@@ -309,18 +265,8 @@ class SweepManager:
         out.update(scenario=row.scenario, runs=[], summary=None)
         if results:
             done = out["status"] == "completed"
-            out.update(await run_in_threadpool(_results, self.out_dir(sweep_id), row, done))
-        base = f"/api/sweeps/{sweep_id}/{FIG_DIR}"
-        out["figures"] = [
-            {
-                "name": f["name"],
-                "title": f.get("title", f["name"]),
-                "png": f"{base}/{f['name']}.png",
-                "svg": f"{base}/{f['name']}.svg",
-                "verdict": [str(v) for v in _as_list(f.get("verdict"))],
-            }
-            for f in (out["summary"] or {}).get("figures", [])
-        ]
+            out.update(await run_in_threadpool(read_results, self.out_dir(sweep_id), row, done))
+        out["figures"] = figure_links(f"/api/sweeps/{sweep_id}/{FIG_DIR}", out["summary"])
         return out
 
     async def figure(self, sweep_id: int, name: str) -> Path:
@@ -331,90 +277,6 @@ class SweepManager:
         if path.parent != base or not await run_in_threadpool(path.is_file):
             raise NotFound(f"sweep {sweep_id} has no figure {name!r}")
         return path
-
-
-# -- the job thread ------------------------------------------------------------------------
-
-
-def _work(job: SweepJob, workers: int, loop: asyncio.AbstractEventLoop) -> None:
-    """Thread body: run the sweep, then hand the outcome to the event loop."""
-    outcome: BaseException | None = None
-    try:
-        _execute(job, workers)
-    except BaseException as exc:  # reported by the supervisor
-        outcome = exc
-    with suppress(RuntimeError):  # a closed loop: the server did not wait for us
-        loop.call_soon_threadsafe(_settle, job.finished, outcome)
-
-
-def _settle(
-    future: asyncio.Future[BaseException | None] | None, outcome: BaseException | None
-) -> None:
-    if future is not None and not future.done():
-        future.set_result(outcome)
-
-
-def _execute(job: SweepJob, workers: int) -> None:
-    """Runs, then the derived files, all in a pool of `workers` processes this job owns."""
-    from app.experiments.bound import engine_bound
-    from app.experiments.outputs import write_outputs
-    from app.experiments.runner import SweepCancelled, local_pool, run_sweep
-
-    job.pool = pool = local_pool(workers)
-    clean = False
-    try:
-        if job.stop.is_set():
-            raise SweepCancelled("stopped before it started")
-        result = run_sweep(
-            job.spec,
-            job.out_dir,
-            progress=job.set_progress,
-            executor=pool,
-            stop=job.stop.is_set,
-            outputs=False,
-            window=2 * workers,
-        )
-        pool.submit(write_outputs, job.spec, result.records, job.out_dir, engine_bound).result()
-        clean = True
-    finally:
-        pool.shutdown(wait=clean, cancel_futures=True)
-
-
-def _halt(job: SweepJob) -> None:
-    """Ask the job to stop, and end its runs in flight now rather than after them."""
-    job.stop.set()
-    pool = job.pool
-    if pool is None:
-        return
-    terminate = getattr(pool, "terminate_workers", None)  # Python 3.14+
-    if callable(terminate):
-        terminate()
-        return
-    for proc in list((getattr(pool, "_processes", None) or {}).values()):
-        proc.terminate()
-
-
-def _set_aside(out_dir: Path) -> None:
-    """A new sweep starts from an empty folder; one left by a lost database is kept aside."""
-    if out_dir.exists():
-        stale = out_dir.with_name(f"{out_dir.name}.orphan-{int(time.time())}")
-        log.warning("sweep folder %s already exists; moved to %s", out_dir, stale)
-        out_dir.rename(stale)
-
-
-def _check_build(out_dir: Path, sweep_id: int) -> None:
-    """Refuse a resume that would mix two engine builds, before starting a job for it."""
-    from app.experiments.worker import engine_fingerprint
-
-    try:
-        pinned = json.loads((out_dir / MANIFEST).read_text(encoding="utf-8")).get("engine")
-    except (OSError, ValueError, AttributeError):
-        return  # no runs yet: nothing to mix
-    if pinned is not None and pinned != engine_fingerprint():
-        raise Conflict(
-            f"sweep {sweep_id} ran on engine build {pinned}, this server runs "
-            f"{engine_fingerprint()}; results of two builds are never mixed: start a new sweep"
-        )
 
 
 # -- reads (thread pool) -------------------------------------------------------------------
@@ -433,50 +295,3 @@ def _page(
         stmt = stmt.where(SweepRow.status == status)
         count = count.where(SweepRow.status == status)
     return list(session.scalars(stmt.limit(limit).offset(offset))), int(session.scalar(count) or 0)
-
-
-def _results(out_dir: Path, row: SweepRow, completed: bool) -> dict[str, Any]:
-    """The runs journaled so far (the `regolith run --json` metrics plus policy and seed) and,
-    for a completed sweep, summary.json and each run's lower bound from runs.csv."""
-    order = {name: i for i, name in enumerate(row.policies)}
-    seeds = set(row.seeds)
-    records = [
-        r for r in Journal(out_dir).load().values() if r["policy"] in order and r["seed"] in seeds
-    ]
-    records.sort(key=lambda r: (order[r["policy"]], r["seed"]))
-    runs = [{**r.get("metrics", {}), "policy": r["policy"], "seed": r["seed"]} for r in records]
-    summary = None
-    if completed:
-        try:
-            summary = json.loads((out_dir / "summary.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            summary = None
-        _add_bounds(runs, out_dir / "runs.csv")
-    return {"runs": runs, "summary": summary}
-
-
-def _add_bounds(runs: list[dict[str, Any]], path: Path) -> None:
-    try:
-        with path.open(encoding="utf-8", newline="") as fh:
-            rows = {(r["policy"], int(r["seed"])): r for r in csv.DictReader(fh)}
-    except (OSError, KeyError, ValueError):
-        return
-    for run in runs:
-        found = rows.get((run["policy"], run["seed"]), {})
-        for col in _FROM_CSV:
-            if col in found:
-                run[col] = _number(found[col]) if found[col] else None
-
-
-def _number(text: str) -> float | str:
-    try:
-        value = float(text)
-    except ValueError:
-        return text
-    return value if math.isfinite(value) else text
-
-
-def _as_list(value: Any) -> list[Any]:
-    if value is None:
-        return []
-    return list(value) if isinstance(value, (list, tuple)) else [value]
