@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
 from app.api.schemas import PolicyName
 from app.experiments.spec import SpecError, parse_seeds
@@ -47,13 +47,34 @@ SeedText = Annotated[
 SeedList = Annotated[list[Seed], Field(min_length=1, max_length=MAX_SEEDS)]
 
 
+def _seed_kind(value: Any) -> str | None:
+    """Pick the union member by JSON type, so an error names one form, not all three."""
+    if isinstance(value, str):
+        return "text"
+    if isinstance(value, (dict, SeedRange)):
+        return "range"
+    return "list" if isinstance(value, list) else None
+
+
+Seeds = Annotated[
+    Annotated[SeedText, Tag("text")]
+    | Annotated[SeedRange, Tag("range")]
+    | Annotated[SeedList, Tag("list")],
+    Discriminator(
+        _seed_kind,
+        custom_error_type="seeds",
+        custom_error_message='expected "0-99", "1,5,9", {"from": 0, "to": 99} or a list of seeds',
+    ),
+]
+
+
 class SweepCreate(_In):
     """Every policy on every seed of one scenario (the reference by default), K× scaled."""
 
     policies: Annotated[list[PolicyName], Field(min_length=1, max_length=16)] = Field(
         default_factory=lambda: [1, 2, 3], description="numbers or names, e.g. [1, 2, 3]"
     )
-    seeds: SeedText | SeedRange | SeedList = "0-9"
+    seeds: Seeds = "0-9"
     scale: Annotated[int, Field(ge=1, le=16)] = 1
     scenario: Scenario | None = None
 
