@@ -20,6 +20,10 @@ NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Coord = Annotated[float, Field(allow_inf_nan=False)]
 
 
+MAX_SEARCH_CELLS = 4_000_000
+"""More scan cells than this is not a mission the engine can hold (a 2 km side at 1 m)."""
+
+
 class ScenarioError(ValueError):
     """A scenario that cannot be used; the message names the field and the reason."""
 
@@ -132,7 +136,13 @@ class Scenario(_Model):
         if free < 0.25 * self.width * self.height:
             raise ValueError("craters cover too much of the area for sites to fit")
         cell = self.scan_radius * math.sqrt(2)
-        if self.sites > 0.5 * (self.width / cell) * (self.height / cell):
+        cells = (self.width / cell) * (self.height / cell)
+        if cells > MAX_SEARCH_CELLS:
+            raise ValueError(
+                f"scan_radius: {self.scan_radius:g} is too small for a {self.width:g}×"
+                f"{self.height:g} area ({cells:.3g} search cells; at most {MAX_SEARCH_CELLS:g})"
+            )
+        if self.sites > 0.5 * cells:
             raise ValueError("sites: more sites than fit apart on the search grid")
         return self
 
@@ -144,23 +154,26 @@ class Scenario(_Model):
             return self
         s = math.sqrt(k)
         px, py = self.plant_xy
-        return self.model_copy(
-            update={
-                "width": self.width * s,
-                "height": self.height * s,
-                "plant": (px * s, py * s),
-                "sites": self.sites * k,
-                "minerals": self.minerals * k,
-                "team": Team(
-                    scouts=self.team.scouts * k,
-                    excavators=self.team.excavators * k,
-                    haulers=self.team.haulers * k,
-                ),
-                "craters": [Crater(x=c.x * s, y=c.y * s, r=c.r) for c in self.craters],
-                "random_craters": self.random_craters * k,
-                "name": f"{self.name}x{k}",
-            }
+        data = self.model_dump()
+        data.update(
+            width=self.width * s,
+            height=self.height * s,
+            plant=(px * s, py * s),
+            sites=self.sites * k,
+            minerals=self.minerals * k,
+            team={
+                "scouts": self.team.scouts * k,
+                "excavators": self.team.excavators * k,
+                "haulers": self.team.haulers * k,
+            },
+            craters=[{"x": c.x * s, "y": c.y * s, "r": c.r} for c in self.craters],
+            random_craters=self.random_craters * k,
+            name=f"{self.name}x{k}",
         )
+        try:
+            return Scenario.model_validate(data)  # a scaled scenario must pass every check too
+        except ValidationError as exc:
+            raise ScenarioError(f"scale {k}: {_error_text(exc)}") from None
 
 
 def reference_scenario() -> Scenario:
