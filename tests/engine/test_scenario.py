@@ -46,7 +46,7 @@ def test_unworkable_scenarios_are_refused_naming_the_field(data, field):
 
 def test_bad_files_say_what_is_wrong(tmp_path: Path):
     for name, text, says in [
-        ("a.yaml", "x: 1", "must end in .toml or .json"),
+        ("a.yaml", "x: 1", r"must end in \.toml or \.json"),
         ("b.toml", "name = ", "not valid TOML"),
         ("c.json", "[1, 2]", "top level"),
     ]:
@@ -54,7 +54,7 @@ def test_bad_files_say_what_is_wrong(tmp_path: Path):
         p.write_text(text)
         with pytest.raises(ScenarioError, match=says):
             load_scenario(p)
-    with pytest.raises(ScenarioError, match="missing.toml"):
+    with pytest.raises(ScenarioError, match=r"missing\.toml"):
         load_scenario(tmp_path / "missing.toml")
 
 
