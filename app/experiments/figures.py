@@ -95,7 +95,9 @@ def draw(
     `data[column][policy_label]` holds one value per run.
     """
     n = len(spec.panels)
-    fig = Figure(figsize=(max(4.2, 3.4 * n), 3.8), layout="constrained")
+    k = max((len(data[p.column]) for p in spec.panels), default=0)  # policies per panel
+    panel_w = max(3.4, 0.8 + 0.85 * k)  # room for each policy's two-line label
+    fig = Figure(figsize=(max(4.2, panel_w * n), 3.8), layout="constrained")
     axes = fig.subplots(1, n, squeeze=False)[0]
     for ax, panel in zip(axes, spec.panels, strict=True):
         ylabel = f"{spec.quantity} ({spec.unit})"
