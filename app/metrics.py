@@ -66,6 +66,16 @@ def render(runner: MissionRunner, store: Store) -> str:
         "Connected WebSocket viewers.",
         [(f'{{mission="{mid}"}}', len(hub)) for mid, hub in sorted(runner.hubs.items())],
     )
+    metric(
+        "regolith_viewer_backlog",
+        "gauge",
+        "Ordered messages waiting for each mission's slowest viewer (dropped at "
+        "REGOLITH_VIEWER_QUEUE); above 0 only while a viewer's socket is not keeping up.",
+        [
+            (f'{{mission="{mid}"}}', max((len(v.queue) for v in hub.viewers), default=0))
+            for mid, hub in sorted(runner.hubs.items())
+        ],
+    )
     delays = list(STATS.frame_delays)
     metric(
         "regolith_frame_delay_seconds",

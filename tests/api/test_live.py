@@ -2,19 +2,26 @@
 
 from __future__ import annotations
 
+import asyncio
 import base64
-import contextlib
+import json
 import os
 import socket
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import httpx
 import pytest
+import websockets
 
 from tests.api.conftest import LiveServer, all_pages, recv, recv_until
+from tests.api.serve_process import ServeProcess
 
 Msg = dict[str, Any]
+LONG = {"minerals": 1500, "max_time_s": 10_000_000}  # a mission that outlasts any test window
 
 
 def _create(api: httpx.Client, **body: Any) -> int:
@@ -199,8 +206,11 @@ def test_policy_change_mid_mission_is_recorded(server: LiveServer, api: httpx.Cl
 
 
 def _stalled_viewer(port: int, mission_id: int) -> socket.socket:
-    """A raw WebSocket client that completes the handshake and then never reads again."""
-    sock = socket.create_connection(("127.0.0.1", port))
+    """A raw WebSocket client that completes the handshake and then never reads again; a small
+    receive buffer makes the kernel's buffers fill within a second."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    sock.connect(("127.0.0.1", port))
     key = base64.b64encode(os.urandom(16)).decode()
     sock.sendall(
         (
@@ -213,24 +223,148 @@ def _stalled_viewer(port: int, mission_id: int) -> socket.socket:
     return sock
 
 
-def test_a_stalled_viewer_never_slows_the_mission_or_other_viewers(
-    server: LiveServer, api: httpx.Client
-) -> None:
-    speed = 1000
-    mid = _create(api, seed=8, speed=speed)
-    stalled = _stalled_viewer(server.port, mid)
-    with contextlib.ExitStack() as stack:
-        readers = [stack.enter_context(server.ws(mid)) for _ in range(3)]
-        for ws in readers:
-            assert recv(ws)["type"] == "snapshot"
-        t0 = time.monotonic()
-        api.post(f"/api/missions/{mid}/resume").raise_for_status()
-        streams: list[list[Msg]] = [[] for _ in readers]
-        for ws, seen in zip(readers, streams, strict=True):
-            recv_until(ws, _ended, seen)
-        wall = time.monotonic() - t0
-    stalled.close()
-    makespan = api.get(f"/api/missions/{mid}").json()["metrics"]["makespan_s"]
-    assert wall < 1.5 * makespan / speed + 1.0  # paced at the asked speed, stall or not
-    events = [[m["event"]["seq"] for m in _of(seen, "event")] for seen in streams]
-    assert events[0] == events[1] == events[2] and len(events[0]) > 100
+@dataclass
+class Window:
+    """What the reading viewers saw during one measured window."""
+
+    delays_ms: list[float]  # receive time - the frame's server `wall` stamp, every reader
+    frames_per_reader: float
+    sim_rate: float  # simulated seconds per wall second, from the frames' (wall, t)
+    viewers: list[int]  # the server's viewer count for the mission, sampled each second
+    backlog: list[int]  # ordered messages waiting for its slowest viewer, sampled each second
+
+    def q(self, q: float) -> float:
+        ordered = sorted(self.delays_ms)
+        return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
+
+    def line(self, name: str) -> str:
+        return (
+            f"  {name:28s} frame delay p50 {self.q(0.5):5.1f} ms  p99 {self.q(0.99):6.1f} ms  "
+            f"{self.frames_per_reader:4.1f} frames/s per reader  "
+            f"{self.sim_rate:4.0f} sim s per wall s  viewers {self.viewers}"
+        )
+
+
+SLOW_SPEED = 300.0  # well inside what the engine does on a loaded machine: pacing, not capacity
+SLOW_READERS, SLOW_WINDOW_S, SLOW_HZ = 10, 3.0, 20
+_FRAME = '{"type":"frame",'  # frames are recognised without parsing every event
+
+
+def _gauge(metrics: str, name: str, mission_id: int) -> int:
+    prefix = f'{name}{{mission="{mission_id}"}} '
+    found = [x[len(prefix) :] for x in metrics.splitlines() if x.startswith(prefix)]
+    return int(float(found[0])) if found else 0
+
+
+async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Window]:
+    """Ten readers watch `mid` through three windows: clean, with a stalled viewer whose
+    socket is full (the server's sends to it block and its queue grows), clean again after
+    the server dropped it. Between windows the mission briefly runs at "max": that floods
+    the stalled socket (the kernel accepts ~2.8 MB on loopback before sends block), then
+    fills its queue."""
+    url = f"ws://127.0.0.1:{port}/api/missions/{mid}/live"
+    seen: list[tuple[int, float, float, float]] = []  # (reader, wall, t, delay ms)
+
+    async def read(ws: websockets.ClientConnection, reader: int) -> None:
+        async for raw in ws:
+            if isinstance(raw, str) and raw.startswith(_FRAME):
+                now, frame = time.time(), json.loads(raw)
+                seen.append((reader, frame["wall"], frame["t"], (now - frame["wall"]) * 1000))
+
+    async def call(method: str, path: str, **kw: Any) -> httpx.Response:
+        r = await asyncio.to_thread(api.request, method, path, **kw)
+        r.raise_for_status()
+        return r
+
+    async def gauges() -> tuple[int, int]:
+        text = (await call("GET", "/api/metrics")).text
+        return _gauge(text, "regolith_viewers", mid), _gauge(text, "regolith_viewer_backlog", mid)
+
+    async def until(done: Callable[[int, int], bool]) -> None:
+        """Flat out until the viewers/backlog gauges say so, then back to the test speed."""
+        await call("PUT", f"/api/missions/{mid}/speed", json={"speed": "max"})
+        deadline = time.monotonic() + 30
+        while not done(*await gauges()):
+            assert time.monotonic() < deadline, "the stalled viewer never filled up"
+            await asyncio.sleep(0.05)
+        await call("PUT", f"/api/missions/{mid}/speed", json={"speed": SLOW_SPEED})
+        await asyncio.sleep(0.5)  # settle at the test speed again
+
+    async def window() -> Window:
+        start, counts = time.time(), []
+        for _ in range(int(SLOW_WINDOW_S)):
+            await asyncio.sleep(1.0)
+            counts.append(await gauges())
+        end = time.time()
+        mine = [(r, w, t, d) for r, w, t, d in seen if start <= w < end]
+        ticks = [(w, t) for r, w, t, _ in mine if r == 0]
+        (w0, t0), (w1, t1) = ticks[0], ticks[-1]
+        return Window(
+            delays_ms=[d for *_, d in mine],
+            frames_per_reader=len(mine) / SLOW_READERS / (end - start),
+            sim_rate=(t1 - t0) / (w1 - w0),
+            viewers=[v for v, _ in counts],
+            backlog=[b for _, b in counts],
+        )
+
+    sockets = [await websockets.connect(url, max_size=2**24) for _ in range(SLOW_READERS)]
+    for ws in sockets:
+        assert json.loads(await ws.recv())["type"] == "snapshot"
+    tasks = [asyncio.create_task(read(ws, i)) for i, ws in enumerate(sockets)]
+    await call("POST", f"/api/missions/{mid}/resume")
+    await asyncio.sleep(0.5)
+    out = {"before": await window()}
+    stall = await asyncio.to_thread(_stalled_viewer, port, mid)
+    await until(lambda viewers, backlog: backlog > 50)  # its sends block: it queues
+    out["stalled"] = await window()
+    await until(lambda viewers, backlog: viewers == SLOW_READERS)  # its queue filled: dropped
+    out["after"] = await window()
+    stall.close()
+    # close while the readers keep draining: a client that stops reading (its own queue
+    # full) would not see the server's close frame until its close timeout
+    await asyncio.gather(*(ws.close() for ws in sockets))
+    await asyncio.gather(*tasks)
+    return out
+
+
+def test_a_stalled_viewer_never_slows_the_mission_or_other_viewers(tmp_path: Path) -> None:
+    """Issue 7: ten reading viewers' frame delay and the mission's pace, with and without an
+    eleventh viewer that never reads (a raw socket that stops after the handshake).
+
+    The server runs in its own process (the readers never share its GIL). One long mission
+    at 300x, 20 frames/s, three 3 s windows (~600 frames each): before the stalled viewer
+    connects, while its socket is full and its queue grows (the server's sends to it block),
+    and after the server dropped it. The stalled window is compared with the two clean ones
+    pooled, which bracket it in time, so a load spike on a shared machine hits both sides.
+    Medians are compared (2x plus a 20 ms floor): p99 on a loaded 2-core machine is
+    scheduler noise of tens to hundreds of ms either way, so it is printed, not asserted.
+    """
+    body = {"seed": 8, "speed": SLOW_SPEED, "paused": True, "scenario": LONG, "planner": "straight"}
+    env = {"REGOLITH_FRAME_HZ": str(SLOW_HZ), "REGOLITH_VIEWER_QUEUE": "5000"}
+    with ServeProcess(tmp_path, "--log-level", "warning", **env) as srv, srv.client() as api:
+        mid = api.post("/api/missions", json=body).json()["id"]
+        runs = asyncio.run(_stall_session(srv.port, api, mid))
+        metrics = api.get("/api/metrics").text
+        api.post(f"/api/missions/{mid}/stop").raise_for_status()
+    before, stalled, after = runs["before"], runs["stalled"], runs["after"]
+    clean = Window(
+        before.delays_ms + after.delays_ms,
+        (before.frames_per_reader + after.frames_per_reader) / 2,
+        (before.sim_rate + after.sim_rate) / 2,
+        before.viewers + after.viewers,
+        before.backlog + after.backlog,
+    )
+    print(f"\nslow client: {SLOW_READERS} readers at {SLOW_SPEED:g}x, {SLOW_HZ} frames/s")
+    for name, run in (("before", before), ("stalled viewer attached", stalled), ("after", after)):
+        print(run.line(name))
+    print(f"  stalled viewer's backlog during its window: {stalled.backlog}")
+
+    assert stalled.viewers == [SLOW_READERS + 1] * len(stalled.viewers)  # attached throughout
+    assert all(b > 0 for b in stalled.backlog)  # and not being served: its sends were blocked
+    assert clean.viewers == [SLOW_READERS] * len(clean.viewers)
+    assert "regolith_viewers_dropped_total 1.0" in metrics  # dropped once its queue filled
+    assert stalled.q(0.5) <= 2 * clean.q(0.5) + 20
+    assert stalled.frames_per_reader >= 0.5 * clean.frames_per_reader
+    # the mission kept its pace, stall or not (the first check only guards the measurement)
+    assert clean.sim_rate > 0.8 * SLOW_SPEED
+    assert stalled.sim_rate > 0.9 * min(clean.sim_rate, SLOW_SPEED)
