@@ -1,6 +1,7 @@
 """Service benchmark: live-stream fan-out and control-call latency against a real server.
 
     .venv/bin/python bench/service_bench.py [--viewers 100] [--seconds 15] [--calls 300]
+    .venv/bin/python bench/service_bench.py --stalled [--phases stalled]
 
 Starts `regolith serve` in a subprocess on a free port with a fresh data folder, then
 
@@ -9,15 +10,22 @@ Starts `regolith serve` in a subprocess on a free port with a fresh data folder,
    server CPU = the server process's CPU time / wall time over the window;
 2. control: three missions at "max" speed while an operator makes sequential control calls
    (policy switches and speed changes on the running missions, pause/resume of a fourth);
-   latency = full HTTP round trip as the client sees it.
+   latency = full HTTP round trip as the client sees it;
+3. stalled (`--stalled`): ten reading viewers of one long mission at 200x, three windows:
+   clean, with an eleventh viewer that never reads (a raw socket that stops after the
+   handshake; the mission runs at "max" until the server's sends to it block and its queue
+   grows), and clean again after the server dropped it; frame delay as in 1, the mission's
+   pace from the frames' (wall, t) stamps.
 
-Targets (issue 4): p99 frame delay < 100 ms; control p99 < 50 ms.
+Targets (issue 4): p99 frame delay < 100 ms; control p99 < 50 ms. Issue 7: the readers'
+frame delay with the stalled viewer within 2x of the clean windows, the pace unchanged.
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import base64
 import json
 import os
 import socket
@@ -26,6 +34,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import httpx
@@ -53,6 +62,7 @@ def free_port() -> int:
 
 def start_server(data_dir: Path, port: int) -> subprocess.Popen[bytes]:
     env = {**os.environ, "REGOLITH_TOKEN": TOKEN, "REGOLITH_MAX_VIEWERS": "1000"}
+    env["REGOLITH_VIEWER_QUEUE"] = str(STALL_QUEUE)  # the stalled viewer lasts its window
     env["REGOLITH_RATE_LIMIT_PER_S"] = "0"  # the control phase is a deliberate burst
     cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
     cmd += ["--port", str(port), "--data-dir", str(data_dir), "--log-level", "warning"]
@@ -164,12 +174,164 @@ def bench_control(base: str, calls: int) -> None:
             print(f"  mission {m}: {rec['status']}, {rate:.0f} simulated s per wall s meanwhile")
 
 
+STALL_SPEED, STALL_READERS, STALL_QUEUE = 200.0, 10, 8_000
+FRAME_PREFIX = '{"type":"frame",'
+
+
+def stalled_viewer(port: int, mission_id: int) -> socket.socket:
+    """A raw WebSocket client that completes the handshake and never reads again."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    sock.connect(("127.0.0.1", port))
+    key = base64.b64encode(os.urandom(16)).decode()
+    sock.sendall(
+        (
+            f"GET /api/missions/{mission_id}/live HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+            "Upgrade: websocket\r\nConnection: Upgrade\r\n"
+            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+        ).encode()
+    )
+    if b" 101 " not in sock.recv(1024):
+        raise SystemExit("the stalled viewer's handshake failed")
+    return sock
+
+
+def gauge(metrics: str, name: str, mission_id: int) -> int:
+    prefix = f'{name}{{mission="{mission_id}"}} '
+    found = [x[len(prefix) :] for x in metrics.splitlines() if x.startswith(prefix)]
+    return int(float(found[0])) if found else 0
+
+
+@dataclass
+class Window:
+    """Ten readers over one window: frame delays (ms), frames/s per reader, pace, gauges."""
+
+    delays: list[float]
+    per_reader: float
+    rate: float
+    viewers: list[int]
+    backlog: list[int]
+    flood_s: float  # seconds at "max" just before it (0 for the first window)
+
+
+async def stalled_session(
+    base: str, port: int, seconds: float, floods: list[float] | None
+) -> list[Window]:
+    """Three windows of ten readers on a fresh mission (same seed each call), each but the
+    first after a spell at "max". With `floods=None` an eleventh viewer that never reads
+    joins after the first window; the spells last until its sends block and until it is
+    dropped. Otherwise no stalled viewer, and the spells last `floods` seconds, so a control
+    run reaches the same points of the same mission."""
+    api = httpx.AsyncClient(base_url=base, headers=AUTH, timeout=30)
+    scenario = {**LONG, "minerals": 20_000}  # never finishes, even at "max"
+    body = {"seed": 8, "speed": STALL_SPEED, "paused": True, "scenario": scenario}
+    mid = (await api.post("/api/missions", json=body)).json()["id"]
+    url = f"ws://127.0.0.1:{port}/api/missions/{mid}/live"
+    seen: list[tuple[int, float, float, float]] = []
+
+    async def read(ws: websockets.ClientConnection, reader: int) -> None:
+        async for raw in ws:
+            if isinstance(raw, str) and raw.startswith(FRAME_PREFIX):
+                now, frame = time.time(), json.loads(raw)
+                seen.append((reader, frame["wall"], frame["t"], (now - frame["wall"]) * 1000))
+
+    async def gauges() -> tuple[int, int]:
+        text = (await api.get("/api/metrics")).text
+        return gauge(text, "regolith_viewers", mid), gauge(text, "regolith_viewer_backlog", mid)
+
+    async def flat_out(stop: str | float) -> float:
+        t0 = time.monotonic()
+        await api.put(f"/api/missions/{mid}/speed", json={"speed": "max"})
+        while True:
+            if isinstance(stop, float):
+                await asyncio.sleep(stop)
+                break
+            viewers, backlog = await gauges()
+            if (stop == "blocked" and backlog > 50) or (stop == "dropped" and viewers == 10):
+                break
+            if time.monotonic() - t0 > 120:
+                raise SystemExit(f"the stalled viewer was never {stop}")
+            await asyncio.sleep(0.05)
+        await api.put(f"/api/missions/{mid}/speed", json={"speed": STALL_SPEED})
+        took = time.monotonic() - t0
+        await asyncio.sleep(0.5)
+        return took
+
+    async def window(flood_s: float) -> Window:
+        start, samples = time.time(), []
+        for _ in range(int(seconds)):
+            await asyncio.sleep(1.0)
+            samples.append(await gauges())
+        end = time.time()
+        mine = [x for x in seen if start <= x[1] < end]
+        ticks = [(w, t) for r, w, t, _ in mine if r == 0]
+        rate = (ticks[-1][1] - ticks[0][1]) / (ticks[-1][0] - ticks[0][0])
+        per_reader = len(mine) / STALL_READERS / (end - start)
+        viewers, backlog = [v for v, _ in samples], [b for _, b in samples]
+        return Window([d for *_, d in mine], per_reader, rate, viewers, backlog, flood_s)
+
+    sockets = [await websockets.connect(url, max_size=2**24) for _ in range(STALL_READERS)]
+    for ws in sockets:
+        await ws.recv()  # the snapshot
+    tasks = [asyncio.create_task(read(ws, i)) for i, ws in enumerate(sockets)]
+    await api.post(f"/api/missions/{mid}/resume")
+    await asyncio.sleep(1.0)
+    out = [await window(0.0)]
+    if floods is None:
+        stall = await asyncio.to_thread(stalled_viewer, port, mid)
+        out.append(await window(await flat_out("blocked")))
+        out.append(await window(await flat_out("dropped")))
+        stall.close()
+    else:
+        out.append(await window(await flat_out(floods[0])))
+        out.append(await window(await flat_out(floods[1])))
+    await asyncio.gather(*(ws.close() for ws in sockets))  # readers keep draining meanwhile
+    await asyncio.gather(*tasks)
+    await api.post(f"/api/missions/{mid}/stop")
+    await api.aclose()
+    return out
+
+
+def bench_stalled(base: str, port: int, seconds: float) -> None:
+    stalled = asyncio.run(stalled_session(base, port, seconds, None))
+    control = asyncio.run(stalled_session(base, port, seconds, [w.flood_s for w in stalled[1:]]))
+    print(
+        f"stalled: {STALL_READERS} reading viewers of one mission at {STALL_SPEED:g}x "
+        f"(10 frames/s), three {seconds:.0f} s windows, with and without an eleventh viewer "
+        "that never reads (control: same seed, same spells at max)"
+    )
+    names = ("before", "stalled viewer attached", "after it was dropped")
+    for name, w, c in zip(names, stalled, control, strict=True):
+        spell = f"after {w.flood_s:.1f} s at max; " if w.flood_s else ""
+        print(
+            f"  {name} ({spell}viewers {sorted(set(w.viewers))};"
+            f" stalled viewer's backlog {w.backlog[0]} -> {w.backlog[-1]})"
+        )
+        for label, x in (("stall run", w), ("control", c)):
+            print(
+                f"    {label:10s} frame delay p50 {pct(x.delays, 0.5):5.1f} ms"
+                f"  p99 {pct(x.delays, 0.99):6.1f} ms  {x.per_reader:4.1f} frames/s per reader"
+                f"  {x.rate:4.0f} sim s per wall s"
+            )
+    w, c = stalled[1], control[1]
+    print(
+        f"  stalled window vs control: p50 {pct(w.delays, 0.5) / pct(c.delays, 0.5):.2f}x"
+        f"  p99 {pct(w.delays, 0.99) / pct(c.delays, 0.99):.2f}x  pace {w.rate / c.rate:.3f}x"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--viewers", type=int, default=100)
     parser.add_argument("--seconds", type=float, default=15.0)
     parser.add_argument("--calls", type=int, default=300)
+    parser.add_argument(
+        "--phases", default="viewers,control", help="comma-separated: viewers,control,stalled"
+    )
+    parser.add_argument("--stalled", action="store_true", help="add the stalled-viewer phase")
+    parser.add_argument("--stall-seconds", type=float, default=8.0, help="each stalled window")
     args = parser.parse_args()
+    phases = args.phases.split(",") + (["stalled"] if args.stalled else [])
     port = free_port()
     with tempfile.TemporaryDirectory() as tmp:
         server = start_server(Path(tmp), port)
@@ -177,8 +339,12 @@ def main() -> None:
             proc = psutil.Process(server.pid)
             base = f"http://127.0.0.1:{port}"
             print(f"machine: {os.cpu_count()} cores, Python {sys.version.split()[0]}")
-            bench_viewers(base, port, proc, args.viewers, args.seconds)
-            bench_control(base, args.calls)
+            if "viewers" in phases:
+                bench_viewers(base, port, proc, args.viewers, args.seconds)
+            if "control" in phases:
+                bench_control(base, args.calls)
+            if "stalled" in phases:
+                bench_stalled(base, port, args.stall_seconds)
         finally:
             server.terminate()
             server.wait(timeout=30)
