@@ -13,9 +13,10 @@ Starts `regolith serve` in a subprocess on a free port with a fresh data folder,
    latency = full HTTP round trip as the client sees it;
 3. stalled (`--stalled`): ten reading viewers of one long mission at 200x, three windows:
    clean, with an eleventh viewer that never reads (a raw socket that stops after the
-   handshake; the mission runs at "max" until the server's sends to it block and its queue
-   grows), and clean again after the server dropped it; frame delay as in 1, the mission's
-   pace from the frames' (wall, t) stamps.
+   handshake with 536-byte segments, so the server's sends to it block within ~2 s and its
+   queue grows), and clean again after the server dropped it (a spell at "max" fills its
+   queue); then a control run of the same mission without it, with the same waits. Frame
+   delay as in 1; the mission's pace from the frames' (wall, t) stamps.
 
 Targets (issue 4): p99 frame delay < 100 ms; control p99 < 50 ms. Issue 7: the readers'
 frame delay with the stalled viewer within 2x of the clean windows, the pace unchanged.
@@ -182,6 +183,9 @@ def stalled_viewer(port: int, mission_id: int) -> socket.socket:
     """A raw WebSocket client that completes the handshake and never reads again."""
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    # 536-byte segments, like a slow remote link: the kernel then holds ~100 KB for it (with
+    # loopback's 64 KB segments the server's send buffer autotunes to ~2.8 MB)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_MAXSEG, 536)
     sock.connect(("127.0.0.1", port))
     key = base64.b64encode(os.urandom(16)).decode()
     sock.sendall(
@@ -218,10 +222,10 @@ async def stalled_session(
     base: str, port: int, seconds: float, floods: list[float] | None
 ) -> list[Window]:
     """Three windows of ten readers on a fresh mission (same seed each call), each but the
-    first after a spell at "max". With `floods=None` an eleventh viewer that never reads
-    joins after the first window; the spells last until its sends block and until it is
-    dropped. Otherwise no stalled viewer, and the spells last `floods` seconds, so a control
-    run reaches the same points of the same mission."""
+    first after a wait. With `floods=None` an eleventh viewer that never reads joins after
+    the first window; the waits last until its sends block (at the bench speed) and until it
+    is dropped (at "max", which fills its queue). Otherwise there is no stalled viewer and the
+    waits last `floods` seconds, so a control run reaches the same points of the mission."""
     api = httpx.AsyncClient(base_url=base, headers=AUTH, timeout=30)
     scenario = {**LONG, "minerals": 20_000}  # never finishes, even at "max"
     body = {"seed": 8, "speed": STALL_SPEED, "paused": True, "scenario": scenario}
@@ -239,9 +243,9 @@ async def stalled_session(
         text = (await api.get("/api/metrics")).text
         return gauge(text, "regolith_viewers", mid), gauge(text, "regolith_viewer_backlog", mid)
 
-    async def flat_out(stop: str | float) -> float:
+    async def flat_out(stop: str | float, speed: str = "max") -> float:
         t0 = time.monotonic()
-        await api.put(f"/api/missions/{mid}/speed", json={"speed": "max"})
+        await api.put(f"/api/missions/{mid}/speed", json={"speed": speed})
         while True:
             if isinstance(stop, float):
                 await asyncio.sleep(stop)
@@ -279,11 +283,11 @@ async def stalled_session(
     out = [await window(0.0)]
     if floods is None:
         stall = await asyncio.to_thread(stalled_viewer, port, mid)
-        out.append(await window(await flat_out("blocked")))
+        out.append(await window(await flat_out("blocked", STALL_SPEED)))  # within ~2 s
         out.append(await window(await flat_out("dropped")))
         stall.close()
     else:
-        out.append(await window(await flat_out(floods[0])))
+        out.append(await window(await flat_out(floods[0], STALL_SPEED)))
         out.append(await window(await flat_out(floods[1])))
     await asyncio.gather(*(ws.close() for ws in sockets))  # readers keep draining meanwhile
     await asyncio.gather(*tasks)
@@ -298,11 +302,11 @@ def bench_stalled(base: str, port: int, seconds: float) -> None:
     print(
         f"stalled: {STALL_READERS} reading viewers of one mission at {STALL_SPEED:g}x "
         f"(10 frames/s), three {seconds:.0f} s windows, with and without an eleventh viewer "
-        "that never reads (control: same seed, same spells at max)"
+        "that never reads (control: same seed, same waits)"
     )
     names = ("before", "stalled viewer attached", "after it was dropped")
     for name, w, c in zip(names, stalled, control, strict=True):
-        spell = f"after {w.flood_s:.1f} s at max; " if w.flood_s else ""
+        spell = f"after a {w.flood_s:.1f} s wait; " if w.flood_s else ""
         print(
             f"  {name} ({spell}viewers {sorted(set(w.viewers))};"
             f" stalled viewer's backlog {w.backlog[0]} -> {w.backlog[-1]})"

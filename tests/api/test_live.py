@@ -21,7 +21,7 @@ from tests.api.conftest import LiveServer, all_pages, recv, recv_until
 from tests.api.serve_process import ServeProcess
 
 Msg = dict[str, Any]
-LONG = {"minerals": 1500, "max_time_s": 10_000_000}  # a mission that outlasts any test window
+LONG = {"minerals": 1500, "max_time_s": 10_000_000}  # outlasts any test window
 
 
 def _create(api: httpx.Client, **body: Any) -> int:
@@ -206,10 +206,14 @@ def test_policy_change_mid_mission_is_recorded(server: LiveServer, api: httpx.Cl
 
 
 def _stalled_viewer(port: int, mission_id: int) -> socket.socket:
-    """A raw WebSocket client that completes the handshake and then never reads again; a small
-    receive buffer makes the kernel's buffers fill within a second."""
+    """A raw WebSocket client that completes the handshake and then never reads again.
+
+    A small receive buffer and segment size (536 bytes, like a slow remote link) keep what the
+    kernel holds for it to ~100 KB; with loopback's 64 KB segments the server's send buffer
+    autotunes to ~2.8 MB, which takes many seconds to fill."""
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_MAXSEG, 536)
     sock.connect(("127.0.0.1", port))
     key = base64.b64encode(os.urandom(16)).decode()
     sock.sendall(
@@ -257,11 +261,9 @@ def _gauge(metrics: str, name: str, mission_id: int) -> int:
 
 
 async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Window]:
-    """Ten readers watch `mid` through three windows: clean, with a stalled viewer whose
-    socket is full (the server's sends to it block and its queue grows), clean again after
-    the server dropped it. Between windows the mission briefly runs at "max": that floods
-    the stalled socket (the kernel accepts ~2.8 MB on loopback before sends block), then
-    fills its queue."""
+    """Ten readers watch `mid` through three windows: clean; with a stalled viewer whose
+    socket is full (the server's sends to it block and its queue grows); clean again after
+    a spell at "max" filled its queue and the server dropped it."""
     url = f"ws://127.0.0.1:{port}/api/missions/{mid}/live"
     seen: list[tuple[int, float, float, float]] = []  # (reader, wall, t, delay ms)
 
@@ -281,14 +283,11 @@ async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Wi
         return _gauge(text, "regolith_viewers", mid), _gauge(text, "regolith_viewer_backlog", mid)
 
     async def until(done: Callable[[int, int], bool]) -> None:
-        """Flat out until the viewers/backlog gauges say so, then back to the test speed."""
-        await call("PUT", f"/api/missions/{mid}/speed", json={"speed": "max"})
+        """Wait for the viewers/backlog gauges to say so."""
         deadline = time.monotonic() + 30
         while not done(*await gauges()):
             assert time.monotonic() < deadline, "the stalled viewer never filled up"
             await asyncio.sleep(0.05)
-        await call("PUT", f"/api/missions/{mid}/speed", json={"speed": SLOW_SPEED})
-        await asyncio.sleep(0.5)  # settle at the test speed again
 
     async def window() -> Window:
         start, counts = time.time(), []
@@ -317,7 +316,10 @@ async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Wi
     stall = await asyncio.to_thread(_stalled_viewer, port, mid)
     await until(lambda viewers, backlog: backlog > 50)  # its sends block: it queues
     out["stalled"] = await window()
+    await call("PUT", f"/api/missions/{mid}/speed", json={"speed": "max"})
     await until(lambda viewers, backlog: viewers == SLOW_READERS)  # its queue filled: dropped
+    await call("PUT", f"/api/missions/{mid}/speed", json={"speed": SLOW_SPEED})
+    await asyncio.sleep(0.5)  # settle at the test speed again
     out["after"] = await window()
     stall.close()
     # close while the readers keep draining: a client that stops reading (its own queue
@@ -334,13 +336,14 @@ def test_a_stalled_viewer_never_slows_the_mission_or_other_viewers(tmp_path: Pat
     The server runs in its own process (the readers never share its GIL). One long mission
     at 300x, 20 frames/s, three 3 s windows (~600 frames each): before the stalled viewer
     connects, while its socket is full and its queue grows (the server's sends to it block),
-    and after the server dropped it. The stalled window is compared with the two clean ones
-    pooled, which bracket it in time, so a load spike on a shared machine hits both sides.
+    and after the server dropped it (a spell at "max" fills its 4,000-message queue). The
+    stalled window is compared with the two clean ones pooled, which bracket it in time, so
+    a load spike on a shared machine hits both sides.
     Medians are compared (2x plus a 20 ms floor): p99 on a loaded 2-core machine is
     scheduler noise of tens to hundreds of ms either way, so it is printed, not asserted.
     """
     body = {"seed": 8, "speed": SLOW_SPEED, "paused": True, "scenario": LONG, "planner": "straight"}
-    env = {"REGOLITH_FRAME_HZ": str(SLOW_HZ), "REGOLITH_VIEWER_QUEUE": "5000"}
+    env = {"REGOLITH_FRAME_HZ": str(SLOW_HZ), "REGOLITH_VIEWER_QUEUE": "4000"}
     with ServeProcess(tmp_path, "--log-level", "warning", **env) as srv, srv.client() as api:
         mid = api.post("/api/missions", json=body).json()["id"]
         runs = asyncio.run(_stall_session(srv.port, api, mid))
