@@ -1,4 +1,4 @@
-"""Limits and guards: rate limiting, body size, CORS, security headers, metrics."""
+"""Limits and guards: rate limiting, body size, CORS, security headers, metrics, bad input."""
 
 from __future__ import annotations
 
@@ -6,10 +6,12 @@ import logging
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import ClientConnection, connect
 
-from tests.api.conftest import LiveServer, make_settings, recv
+from tests.api.conftest import TOKEN, LiveServer, make_settings, recv
 
 
 @pytest.fixture
@@ -113,3 +115,118 @@ def test_token_in_a_socket_url_never_reaches_the_logs() -> None:
     )
     assert RedactTokens().filter(record)
     assert "s3cret" not in record.getMessage() and "token=***&x=1" in record.getMessage()
+
+
+def _samples(text: str) -> dict[str, float]:
+    """Prometheus text as {'name{labels}': value}."""
+    out = {}
+    for line in text.splitlines():
+        if line and not line.startswith("#"):
+            key, _, value = line.rpartition(" ")
+            out[key] = float(value)
+    return out
+
+
+def test_metrics_cover_what_issue_7_asks_for(server: LiveServer) -> None:
+    """Missions running, sim speed, viewers, frame delay, auctions, DB write latency."""
+    with server.client() as api:
+        body = {"seed": 2, "speed": 500, "paused": True, "planner": "straight"}
+        mid = api.post("/api/missions", json=body).json()["id"]
+        with server.ws(mid) as ws:
+            recv(ws)
+            api.post(f"/api/missions/{mid}/resume").raise_for_status()
+            while recv(ws).get("t", 0) < 300:  # long enough for auctions to open
+                pass
+            m = _samples(api.get("/api/metrics").text)
+        api.post(f"/api/missions/{mid}/stop").raise_for_status()
+    one = f'{{mission="{mid}"}}'
+    assert m['regolith_missions_live{status="running"}'] == 1
+    assert m[f"regolith_mission_speed{one}"] == 500
+    assert m[f"regolith_mission_sim_time_seconds{one}"] >= 300
+    assert m[f"regolith_mission_auctions_total{one}"] > 0  # rate() of it: auctions per second
+    assert m[f"regolith_viewers{one}"] == 1 and m[f"regolith_viewer_backlog{one}"] == 0
+    p50, p99 = (m[f'regolith_frame_delay_seconds{{quantile="{q}"}}'] for q in ("0.5", "0.99"))
+    assert 0 <= p50 <= p99 < 5
+    assert m["regolith_frames_sent_total"] > 0
+    assert m["regolith_db_writes_total"] > 0 and m["regolith_db_write_seconds_total"] > 0
+    assert m["regolith_db_write_seconds_max"] > 0 and "regolith_db_write_queue" in m
+
+
+@pytest.fixture
+def small(tmp_path: Path) -> Iterator[LiveServer]:
+    server = LiveServer(make_settings(tmp_path, max_robots=13, max_grid_cells=1000)).start()
+    yield server
+    server.stop()
+
+
+def test_configured_size_limits_are_422_and_429(small: LiveServer) -> None:
+    with small.client() as api:
+        big = {"scenario": {"team": {"haulers": 10}}, "paused": True}
+        r = api.post("/api/missions", json=big)
+        assert r.status_code == 422 and "body.scenario.team" in r.json()["message"]
+        assert "REGOLITH_MAX_ROBOTS" in r.json()["message"]
+        wide = {"scenario": {"width": 200, "height": 200}, "paused": True}
+        r = api.post("/api/missions", json=wide)
+        assert r.status_code == 422 and "REGOLITH_MAX_GRID_CELLS" in r.json()["message"]
+        mid = api.post("/api/missions", json={"paused": True, "planner": "straight"}).json()["id"]
+        assert api.post(f"/api/missions/{mid}/robots", json={"type": "hauler"}).status_code == 201
+        r = api.post(f"/api/missions/{mid}/robots", json={"type": "hauler"})
+        assert r.status_code == 429 and "13 robots" in r.json()["detail"]
+
+
+@pytest.mark.parametrize(
+    ("scenario", "says"),
+    [
+        ({"timing": {"dig_s": -1}}, "body.scenario.timing.dig_s"),
+        ({"protocol": {"bid_window_s": -0.5}}, "body.scenario.protocol.bid_window_s"),
+        ({"max_time_s": 0}, "body.scenario.max_time_s"),
+        ({"craters": [{"x": 50, "y": 50, "r": 5}]}, "craters[0] covers the plant"),
+        ({"plant": [150, 50]}, "plant must lie inside the area"),
+    ],
+)
+def test_scenarios_that_cannot_work_are_422_naming_the_reason(
+    api: httpx.Client, scenario: dict[str, object], says: str
+) -> None:
+    r = api.post("/api/missions", json={"scenario": scenario})
+    assert r.status_code == 422 and says in r.json()["message"], r.text
+
+
+def _closed_with(ws: ClientConnection) -> int:
+    with pytest.raises(ConnectionClosed) as closed:
+        while True:  # frames may arrive before the close
+            ws.recv(timeout=10)
+    assert closed.value.rcvd is not None
+    return closed.value.rcvd.code
+
+
+@pytest.mark.parametrize(
+    ("message", "code"),
+    [("x" * 5000, 1009), (b"\x00\x01", 1003), ("not json", 1003), ("y" * 100_000, 1009)],
+)
+def test_bad_socket_input_closes_that_socket_on_a_real_server(
+    server: LiveServer, api: httpx.Client, message: str | bytes, code: int
+) -> None:
+    mid = api.post("/api/missions", json={"paused": True, "planner": "straight"}).json()["id"]
+    with server.ws(mid) as ws, server.ws(mid) as other:
+        assert recv(ws)["type"] == "snapshot" and recv(other)["type"] == "snapshot"
+        ws.send(message)
+        assert _closed_with(ws) == code
+        other.send("{}")  # the other viewer is untouched
+        api.post(f"/api/missions/{mid}/resume").raise_for_status()
+        assert recv(other)["type"] in ("frame", "status", "event", "auction")
+
+
+def test_socket_needs_the_token_when_reads_do(tmp_path: Path) -> None:
+    server = LiveServer(make_settings(tmp_path, read_requires_token=True)).start()
+    try:
+        with server.client() as api:
+            mid = api.post("/api/missions", json={"paused": True, "planner": "straight"}).json()
+        with connect(f"ws://127.0.0.1:{server.port}/api/missions/{mid['id']}/live") as ws:
+            assert _closed_with(ws) == 1008
+        url = f"ws://127.0.0.1:{server.port}/api/missions/{mid['id']}/live?token={TOKEN}"
+        with connect(url) as ws:
+            assert recv(ws)["type"] == "snapshot"
+        with server.client(token=False) as anon:
+            assert anon.get("/api/missions").status_code == 401
+    finally:
+        server.stop()
