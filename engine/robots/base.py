@@ -102,6 +102,7 @@ class Robot:
         self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
         self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
+        self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
         self.reserved: OpenAuction | None = None
         self.pending_awards: list[PendingAward] = []
         self.down: set[str] = set()
@@ -518,17 +519,26 @@ class Robot:
                 self._bid(a, rnd, -self.cost_to(a))
 
     def _bid_times(self, targets: list[OpenAuction], busy: bool) -> None:
-        """Bids of a time-bidding policy: -(expected arrival time), kept up to date.
+        """Bids of a time-bidding policy: -(expected arrival time).
 
-        A bid is re-sent when the estimate moved by more than `REBID_S`, and a robot that has
-        run out of room withdraws its finite bids with -inf, so a winner is rarely one that must
-        decline.
+        Auctions (or rounds) I have not bid in get a bid. The others are looked at again only
+        when my own situation changed (a task won or finished, a load, a stop): then a bid is
+        re-sent if the estimate moved by more than `REBID_S`, and a robot that has run out of
+        room withdraws its finite bids with -inf, so a winner is rarely one that must decline.
+        A busy robot's -inf is sent once per auction, as under the other policies.
         """
+        situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
+        changed = situation != self._bid_situation
+        self._bid_situation = situation
+        every_round = self.ctx.scenario.protocol.busy_bid == "every_round"
         for a in targets:
             prev = self.my_bids.get(a.auction_id)
             rnd = self.rounds.get(a.auction_id, 0)
+            fresh = prev is None or prev[0] != rnd
+            if not (fresh or changed):
+                continue
             if busy:
-                if prev is None or prev[0] != rnd or math.isfinite(prev[1]):
+                if prev is None or math.isfinite(prev[1]) or (every_round and prev[0] != rnd):
                     self._bid(a, rnd, -math.inf)
                 continue
             utility = -self.eta_to(a)
