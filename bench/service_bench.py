@@ -163,6 +163,8 @@ def bench_control(base: str, calls: int) -> None:
         wall = time.monotonic() - t0
         after = {m: api.get(f"/api/missions/{m}").json() for m in running}
         busy = sum(1 for m in after.values() if m["status"] == "running")
+        for m in [*running, spare]:  # leave the machine quiet for the next phase
+            api.post(f"/api/missions/{m}/stop")
     everything = [x for v in lat.values() for x in v]
     print(f"control: {calls} sequential calls while 3 missions run at max speed")
     print(f"  ({replaced} finished missions replaced; {busy} still running at the end)")
