@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from engine.geometry import Point, segment_point_distance
-from engine.scenario import Crater, Scenario
+from engine.scenario import Crater, Scenario, ScenarioError
 
 CLEARANCE = 0.5
 """Robots keep this far from a crater's rim (their half-width); planning inflates craters by it."""
@@ -175,7 +175,10 @@ def generate_world(s: Scenario, rng: np.random.Generator) -> World:
     while len(points) < s.sites:
         attempts += 1
         if attempts > 200 * s.sites + 1000:
-            raise ValueError("sites: could not place every site in free space")
+            raise ScenarioError(
+                "sites: could not place every site in free space away from the start area "
+                "(fewer sites, fewer or smaller craters, or a smaller start_spread)"
+            )
         x = float(rng.uniform(edge, s.width - edge))
         y = float(rng.uniform(edge, s.height - edge))
         if math.hypot(x - px, y - py) < s.start_spread + 2.0:

@@ -105,7 +105,9 @@ def _finite(v: Any) -> Any:
 
 
 def run(
-    policy: Annotated[str, typer.Option(help="1|fcfs, 2|coalition, 3|nearest (or a plug-in)")],
+    policy: Annotated[
+        str, typer.Option(help="1|fcfs, 2|coalition, 3|nearest, 4|lookahead, 0|central (oracle)")
+    ],
     seed: Annotated[int, typer.Option(min=0, help="Seed of the world and every random draw")],
     scenario: Annotated[
         Path | None, typer.Option(help="Scenario file (.toml or .json); default: reference")
