@@ -62,6 +62,8 @@ def test_serve_logs_json_lines_with_ids_and_never_the_token(tmp_path: Path) -> N
         url = f"ws://127.0.0.1:{srv.port}/api/missions/{mid}/live?token={TOKEN}"
         with connect(url, additional_headers={"Authorization": f"Bearer {TOKEN}"}) as ws:
             assert json.loads(ws.recv(timeout=10))["type"] == "snapshot"
+            assert ws.response is not None
+            socket_rid = ws.response.headers["x-request-id"]
             ws.send("not json")
             with pytest.raises(ConnectionClosed) as closed:
                 while True:  # a first frame may come before the close
@@ -88,7 +90,7 @@ def test_serve_logs_json_lines_with_ids_and_never_the_token(tmp_path: Path) -> N
     read = _one(lines, logger="regolith.access", request_id=generated)
     assert read["mission_id"] == mid and read["path"] == f"/api/missions/{mid}"
 
-    socket = _one(lines, logger="regolith.access", method="WS")
+    socket = _one(lines, logger="regolith.access", method="WS", request_id=socket_rid)
     assert socket["mission_id"] == mid and socket["close_code"] == 1003
     assert socket["path"] == f"/api/missions/{mid}/live"  # the query (and token) left out
     handshake = [ln for ln in lines if ln.get("request_id") == socket["request_id"]]
