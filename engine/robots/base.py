@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
-from engine.auction import AUCTION_KINDS, Allocation, AuctionHouse
+from engine.auction import Allocation, AuctionHouse
 from engine.geometry import Point, path_length, point_along, remaining_path
 from engine.messages import (
     Ack,
@@ -23,7 +23,6 @@ from engine.messages import (
     Bid,
     Close,
     Handoff,
-    Heartbeat,
     Hello,
     Holding,
     Leaving,
@@ -36,6 +35,7 @@ from engine.messages import (
 )
 from engine.planning import Path, PlanningError
 from engine.policies import OpenAuction, PendingAward, coalition_partner
+from engine.robots.recovery import Recovery
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -67,7 +67,7 @@ class Motion:
     speed: float
 
 
-class Robot:
+class Robot(Recovery):
     rtype = "robot"
     capability: TaskType | None = None
 
@@ -393,69 +393,6 @@ class Robot:
     def on_task_done_heard(self, msg: TaskDone) -> None:
         """Hook for subclasses."""
 
-    def _on_holding(self, msg: Holding) -> None:
-        """A robot I re-auctioned a task from is alive and still on it: it keeps the task."""
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == msg.task_id:
-                self.house.cancel(rec.id)
-                self.house.allocations[msg.task_id] = Allocation(
-                    rec.id, rec.task_id, rec.task_type, rec.location, msg.sender, self.env.now
-                )
-                return
-        alloc = self.house.allocations.get(msg.task_id)
-        if alloc is not None and alloc.winner != msg.sender:
-            self.ctx.bus.publish(Revoke(sender=self.name, task_id=msg.task_id, robot=alloc.winner))
-            self.ctx.emit("task_revoked", by=self.name, robot=alloc.winner, task_id=msg.task_id)
-            alloc.winner = msg.sender
-
-    def _on_revoke(self, msg: Revoke) -> None:
-        if msg.robot != self.name:
-            return
-        self.queue = deque(a for a in self.queue if a.task_id != msg.task_id)
-        cur = self.current
-        if cur is not None and cur.task_id == msg.task_id:
-            if self.load():  # carrying the mineral: this robot is the real holder
-                self.ctx.bus.publish(
-                    Holding(sender=self.name, task_id=cur.task_id, auction_id=cur.auction_id)
-                )
-            elif self._life_proc is not None and self._life_proc.is_alive:
-                self.ctx.emit("task_ended", robot=self.name, task_id=cur.task_id, outcome="revoked")
-                self._life_proc.interrupt("revoked")
-
-    def _on_probe(self, msg: Probe) -> None:
-        if msg.target == self.name and self.participating:
-            self.heartbeat()
-
-    def _on_takeover(self, msg: Takeover) -> None:
-        mine = self.adopted.get(msg.failed)
-        if mine is not None and msg.sender < self.name:
-            for aid in mine:
-                self.house.cancel(aid)
-            for tid, alloc in list(self.house.allocations.items()):
-                if alloc.auction_id in mine:
-                    del self.house.allocations[tid]
-            del self.adopted[msg.failed]
-            self.on_adoption_undone(msg.failed)
-        self.peer_open.pop(msg.failed, None)
-        self.peer_alloc.pop(msg.failed, None)
-        self.on_takeover_heard(msg)
-
-    def on_adoption_undone(self, failed: str) -> None:
-        """Hook: a peer with a smaller name adopted `failed` too; it keeps the work."""
-
-    def on_takeover_heard(self, msg: Takeover) -> None:
-        """Hook for subclasses."""
-
-    def _on_leaving(self, msg: Leaving) -> None:
-        if msg.sender not in self.down:
-            self.mark_down(msg.sender)
-
-    def mark_down(self, peer: str) -> None:
-        self.down.add(peer)
-        self._in_order = None
-        self.down_at[peer] = float(self.env.now)
-        self.peer_down(peer)
-
     def _on_hello(self, msg: Hello) -> None:
         self.house.reannounce_open()
         self.on_hello_heard(msg)
@@ -604,170 +541,6 @@ class Robot:
             TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)
         )
         self.consider_bids()
-
-    # --- liveness, monitoring, adoption ---------------------------------------------------
-    def heartbeat(self) -> None:
-        pos, _ = self.position()
-        tasks = tuple(a.task_id for a in self.queue)
-        if self.current is not None:
-            tasks = (self.current.task_id, *tasks)
-        load = self.load()
-        self.ctx.bus.publish(
-            Heartbeat(
-                sender=self.name,
-                rtype=self.rtype,
-                t=float(self.env.now),
-                x=pos[0],
-                y=pos[1],
-                state=self.state,
-                tasks=tasks,
-                open_auctions=tuple(self.house.open_auctions),
-                progress=self.progress(),
-                # the route matters only to whoever must search for a mineral I carry
-                path=tuple(self.remaining_route()[:16]) if load else (),
-                load=load,
-                done=tuple(self.done_ids),
-                adopted=tuple(self.adopted),
-                received=self.handoffs_received(),
-            )
-        )
-
-    def progress(self) -> int:
-        return 0
-
-    def load(self) -> int:
-        return 0
-
-    def check_peers(self) -> None:
-        proto = self.ctx.scenario.protocol
-        now = float(self.env.now)
-        board = self.ctx.liveness
-        for peer in [p for p in self.down if board.last_heard(self.name, p) > self.down_at[p]]:
-            self.down.discard(peer)  # heard again since: it is back
-            self._in_order = None
-        for peer in board.silent(self.name, now, proto.failure_timeout_s):
-            if peer not in self.down and peer not in self._probing:
-                self._probing.add(peer)
-                self._spawn(self._probe(peer))
-        # an auction whose auctioneer no longer lists it has closed (we missed the Close)
-        latest: dict[str, Heartbeat | None] = {}
-        for aid, info in list(self.open_auctions.items()):
-            who = info.auctioneer
-            hb = (
-                latest[who]
-                if who in latest
-                else latest.setdefault(who, board.last_heartbeat(self.name, who))
-            )
-            if hb is not None and hb.t > info.opened_at + 1e-9 and aid not in hb.open_auctions:
-                self.forget_auction(aid)
-        # a winner that neither lists a task nor reports it done has dropped it
-        grace = 2 * proto.heartbeat_s + proto.ack_timeout_s
-        for tid, alloc in list(self.house.allocations.items()):
-            hb = board.last_heartbeat(self.name, alloc.winner)
-            if hb is None or hb.t < alloc.since + grace:
-                continue
-            if tid in hb.done:
-                del self.house.allocations[tid]
-            elif tid not in hb.tasks:
-                del self.house.allocations[tid]
-                self.reauction(alloc, hb)
-
-    def _probe(self, peer: str) -> Any:
-        """Ask a silent peer directly a few times before declaring it failed: on a lossy bus a
-        run of lost heartbeats is not a failure, and a false alarm costs a duplicate task."""
-        proto = self.ctx.scenario.protocol
-        asked_at = float(self.env.now)
-        try:
-            for _ in range(proto.probes):
-                self.ctx.bus.publish(Probe(sender=self.name, target=peer))
-                yield self.env.timeout(proto.ack_timeout_s)
-                if self.ctx.liveness.last_heard(self.name, peer) >= asked_at:
-                    return
-        finally:
-            self._probing.discard(peer)
-        if peer not in self.down and self.participating:
-            self.mark_down(peer)
-
-    def peer_down(self, peer: str) -> None:
-        """`peer` fell silent or left: re-auction what it held from me, adopt its duties."""
-        self.ctx.emit("failure_detected", by=self.name, robot=peer)
-        board = self.ctx.liveness
-        for tid, alloc in list(self.house.allocations.items()):
-            if alloc.winner == peer:
-                del self.house.allocations[tid]
-                self.reauction(alloc, board.last_heartbeat(self.name, peer))
-        for aid, info in list(self.open_auctions.items()):
-            if info.auctioneer == peer:
-                self.forget_auction(aid)
-        if self.reserved is not None and self.reserved.auctioneer == peer:
-            self.reserved = None
-        peer_robot = self.ctx.robots.get(peer)
-        if peer_robot is not None and peer_robot.rtype == self.rtype and self.is_adopter(peer):
-            self.adopt(peer)
-        self.consider_bids()
-
-    def is_adopter(self, peer: str) -> bool:
-        """The smallest-named live robot of my type adopts a silent peer."""
-        if not self.participating:
-            return False
-        for name in self.ctx.robot_type_names(self.rtype):
-            if name == peer or name in self.down:
-                continue
-            if name == self.name:
-                return True
-            if self.peer_alive(name):
-                return False
-        return False
-
-    def adopt(self, peer: str) -> None:
-        opened: list[str] = []
-        kind = AUCTION_KINDS.get(self.rtype, "operator")
-        for info in self.peer_open.pop(peer, {}).values():
-            rec = self.house.open(
-                info.task_type,
-                info.location,
-                info.task_id,
-                kind=kind,
-                search_path=info.search_path,
-                reauction_of=info.auction_id,
-            )
-            opened.append(rec.id)
-        for tid, alloc in self.peer_alloc.pop(peer, {}).items():
-            if alloc.winner in self.down:
-                self.reauction(alloc, None)
-            else:
-                self.house.allocations[tid] = alloc
-        self.adopted[peer] = opened
-        cells = self.adopt_extra(peer)
-        self.ctx.emit("takeover", by=self.name, robot=peer, auctions=opened)
-        self.ctx.bus.publish(Takeover(sender=self.name, failed=peer, cells=tuple(cells)))
-
-    def adopt_extra(self, peer: str) -> list[int]:
-        """Hook: scouts take over the peer's unscanned cells."""
-        return []
-
-    def reauction(self, alloc: Allocation, hb: Heartbeat | None) -> None:
-        """Offer a task again whose holder failed, released it or dropped it."""
-        kind = AUCTION_KINDS.get(self.rtype, "operator")
-        location, search = alloc.location, alloc.search_path
-        if hb is not None and hb.load > 0 and hb.tasks[:1] == (alloc.task_id,):
-            # it was carrying the mineral: search along its route from where it was last heard
-            location, search = (hb.x, hb.y), hb.path
-        elif alloc.task_type == "transport" and not search:
-            # the mineral may have left the bucket before the hauler fell silent: look at the
-            # pick-up point first, then along the road from there to the plant
-            try:
-                search = self.ctx.planner.plan(location, self.ctx.world.plant)
-            except PlanningError:
-                search = ()
-        self.house.open(
-            alloc.task_type,
-            location,
-            alloc.task_id,
-            kind=kind,
-            search_path=search,
-            reauction_of=alloc.auction_id,
-        )
 
     def _on_allocated(self, alloc: Allocation) -> None:
         """Hook from the auction house when one of my auctions closes."""
