@@ -141,8 +141,26 @@ class Robot(Bidder, Recovery):
                 self.on_revoked()
 
     def life(self) -> Any:
-        """The robot's behaviour; subclasses override."""
-        yield self.env.event()
+        """Work through the tasks won, one at a time; between them, what a free robot does."""
+        while True:
+            if self.leaving:
+                self.go_quiet()
+                return
+            if self.queue:
+                self.current = self.queue.popleft()
+                yield from self.work(self.current)
+            else:
+                yield from self.when_free()
+
+    def work(self, a: Assignment) -> Any:
+        """Carry out one won task; robots that win tasks override it."""
+        raise NotImplementedError(f"{self.rtype} cannot carry out {a.task_type}")
+        yield  # pragma: no cover - makes this a generator
+
+    def when_free(self) -> Any:
+        """Nothing to do: wait until something changes."""
+        self.state = "idle"
+        yield self.wait_for_wake()
 
     def on_revoked(self) -> None:
         """Hook: tidy up after the current task was revoked mid-way."""

@@ -56,18 +56,8 @@ class Excavator(Robot):
     def load(self) -> int:
         return self.bucket
 
-    def life(self) -> Any:
-        while True:
-            if self.leaving:
-                self.go_quiet()
-                return
-            if self.queue:
-                a = self.queue.popleft()
-                self.current = a
-                yield from self.excavate(a)
-            else:
-                self.state = "idle"
-                yield self.wait_for_wake()
+    def work(self, a: Assignment) -> Any:
+        yield from self.excavate(a)
 
     def excavate(self, a: Assignment) -> Any:
         self.state = "travelling"

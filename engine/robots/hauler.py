@@ -32,20 +32,14 @@ class Hauler(Robot):
     def load(self) -> int:
         return self.bin
 
-    def life(self) -> Any:
-        while True:
-            if self.leaving:
-                self.go_quiet()
-                return
-            if self.queue:
-                a = self.queue.popleft()
-                self.current = a
-                yield from self.transport(a)
-            elif self.in_coalition() and self.partner_site is not None:
-                yield from self.follow_partner()
-            else:
-                self.state = "idle"
-                yield self.wait_for_wake()
+    def work(self, a: Assignment) -> Any:
+        yield from self.transport(a)
+
+    def when_free(self) -> Any:
+        if self.in_coalition() and self.partner_site is not None:
+            yield from self.follow_partner()
+        else:
+            yield from super().when_free()
 
     # --- auctioned transport ------------------------------------------------------------
     def transport(self, a: Assignment) -> Any:
