@@ -29,13 +29,14 @@ from engine.robots import OPERATOR, Excavator, Hauler, Operator, Robot, Scout
 from engine.robots.scout import site_task_id
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.spiral import spiral_routes
+from engine.views import MissionViews
 from engine.world import generate_world
 
 PlannerKind = Literal["ompl", "straight"]
 _CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hauler": Hauler}
 
 
-class Mission:
+class Mission(MissionViews):
     def __init__(
         self,
         scenario: Scenario,
@@ -185,97 +186,6 @@ class Mission:
         out["wall_s"] = self._wall
         return out
 
-    def world_map(self) -> dict[str, Any]:
-        return self.world.to_dict()
-
-    def _robot_dict(self, r: Robot, full: bool) -> dict[str, Any]:
-        (x, y), heading = r.position()
-        d: dict[str, Any] = {
-            "name": r.name,
-            "type": r.rtype,
-            "state": r.state,
-            "x": x,
-            "y": y,
-            "heading": heading,
-            "load": r.load(),
-            "alive": r.alive,
-        }
-        if full:
-            cur = r.current
-            d["task"] = (
-                None
-                if cur is None
-                else f"{cur.task_type}@({cur.location[0]:.1f},{cur.location[1]:.1f})"
-            )
-            d["distance"] = r.distance
-            d["path"] = [[p[0], p[1]] for p in r.remaining_route()]
-            d["enabled"] = r.enabled and not r.leaving
-            d["partner"] = (
-                _partner(r.name) if self.ctx.policy.coalitions() and r.rtype != "scout" else None
-            )
-        return d
-
-    def _robots(self) -> Iterable[Robot]:
-        return (r for r in self.ctx.robots.values() if r.rtype != "operator")
-
-    def counters(self) -> dict[str, int]:
-        ctx = self.ctx
-        return {
-            "sites_found": ctx.sites_found,
-            "sites_total": len(ctx.sites),
-            "minerals_delivered": ctx.delivered,
-            "minerals_total": ctx.minerals_total,
-            "auctions": len(ctx.auctions),
-            "bids": ctx.bids,
-            "declines": ctx.declines,
-            "reannouncements": sum(a.reannouncements for a in ctx.auctions),
-            "messages": ctx.bus.published,
-        }
-
-    def frame(self) -> dict[str, Any]:
-        return {
-            "t": self.now,
-            "status": self.status,
-            "policy": self.policy,
-            "robots": [self._robot_dict(r, False) for r in self._robots()],
-            "scanned": self.ctx.scanned_b64(),
-            "scanned_count": self.ctx.scanned_count,
-            "counters": self.counters(),
-        }
-
-    def robot_list(self) -> list[dict[str, Any]]:
-        return [self._robot_dict(r, True) for r in self._robots()]
-
-    def snapshot(self) -> dict[str, Any]:
-        ctx = self.ctx
-        return {
-            "t": self.now,
-            "status": self.status,
-            "policy": self.policy,
-            "scenario": self.scenario.name,
-            "seed": self.seed,
-            "robots": self.robot_list(),
-            "sites": [
-                {
-                    "id": s.id,
-                    "x": s.x,
-                    "y": s.y,
-                    "found": s.found_at is not None,
-                    "found_at": s.found_at,
-                    "remaining": s.remaining,
-                    "total": s.total,
-                    "excavator": s.worker,
-                }
-                for s in ctx.sites
-            ],
-            "dropped": [{"x": g.x, "y": g.y} for g in ctx.ground],
-            "scanned": ctx.scanned_b64(),
-            "scanned_count": ctx.scanned_count,
-            "cells_total": len(ctx.scanned),
-            "auctions": [a.to_dict() for a in ctx.auctions if a.status == "open"],
-            "counters": self.counters(),
-        }
-
     # --- operator commands --------------------------------------------------------------
     def _record(self, kind: str, **args: Any) -> None:
         self.actions.append({"t": self.now, "kind": kind, "args": args})
@@ -402,12 +312,6 @@ class Mission:
         if kind == "inject_task":
             return self.inject_task(args["type"], args["location"])
         raise CommandRejected(f"kind: unknown action {kind!r}")
-
-
-def _partner(name: str) -> str | None:
-    from engine.policies import coalition_partner
-
-    return coalition_partner(name)
 
 
 def run_mission(

@@ -8,14 +8,14 @@ import math
 from collections import deque
 from typing import TYPE_CHECKING, Any
 
+import simpy
+
 from engine.geometry import Point, path_length
 from engine.messages import Ack, Award, Bid, TaskType
 from engine.planning import PlanningError
 from engine.policies import OpenAuction, PendingAward
 
 if TYPE_CHECKING:
-    import simpy
-
     from engine.context import MissionContext
     from engine.robots.base import Assignment
 
