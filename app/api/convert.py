@@ -7,12 +7,17 @@ from app.db.models import Auction
 from app.db.models import Mission as MissionRow
 from app.services.missions import LiveState
 
+LIVE = ("running", "paused")
+
 
 def mission_read(row: MissionRow, live: LiveState | None) -> MissionRead:
     speed = live.speed if live is not None else row.speed
+    # the live status while it is live; an ending is reported once the record holds it, so a
+    # client never sees "completed" without its end time and metrics
+    live_status = live is not None and live.status in LIVE
     return MissionRead(
         id=row.id,
-        status=live.status if live is not None else row.status,  # type: ignore[arg-type]
+        status=live.status if live_status else row.status,  # type: ignore[union-attr, arg-type]
         policy=live.policy if live is not None else row.current_policy,
         initial_policy=row.policy,
         seed=row.seed,
