@@ -191,6 +191,14 @@ class Mission(MissionViews):
         self.actions.append({"t": self.now, "kind": kind, "args": args})
 
     def _check_running(self) -> None:
+        """Settle the current instant, then refuse if the mission has ended.
+
+        Every event already due at `now` runs before a command takes effect, whether the
+        command comes live (at any point of a stepping slice, or before a paused mission's
+        first step) or from a replay that advanced to the command's time: both paths then
+        see the same state, so a recorded history always replays to the same log.
+        """
+        self.advance(self.now)
         if self.done:
             raise CommandRejected(f"mission has ended ({self.status})")
 
