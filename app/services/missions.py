@@ -18,8 +18,10 @@ from app.db.models import utcnow
 from app.live import Hub, Viewer, encode
 from app.runner import LiveMission, MissionRunner
 from app.services import queries
+from app.services.admission import Admission
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.replay import revive
+from app.services.singleflight import SingleFlight
 from app.services.store import Store
 from app.settings import Settings
 from engine import Mission, Scenario, reference_scenario
@@ -62,6 +64,8 @@ class MissionService:
         self.store = store
         self.runner = runner
         self.gate = runner.gate
+        self.admission = Admission(settings.max_running_missions, runner.running_count)
+        self._revivals: SingleFlight[None] = SingleFlight()
 
     # -- lookups -----------------------------------------------------------------------
 
@@ -120,13 +124,18 @@ class MissionService:
         scenario: Scenario | None,
         planner: str,
     ) -> tuple[MissionRow, LiveState]:
-        if self.runner.running_count() >= self.settings.max_running_missions:
-            raise LimitExceeded(
-                f"{self.settings.max_running_missions} missions are already live; "
-                "stop one or raise REGOLITH_MAX_RUNNING_MISSIONS"
-            )
         scenario = scenario or reference_scenario()
         self._check_size(scenario)
+        refusal = (
+            f"{self.settings.max_running_missions} missions are already live; "
+            "stop one or raise REGOLITH_MAX_RUNNING_MISSIONS"
+        )
+        with self.admission.place(refusal):
+            return await self._create(scenario, seed, policy, speed, paused, planner)
+
+    async def _create(
+        self, scenario: Scenario, seed: int, policy: str, speed: Speed, paused: bool, planner: str
+    ) -> tuple[MissionRow, LiveState]:
         mission, world = await asyncio.to_thread(self._build, scenario, seed, policy, planner)
         paused = paused or speed == 0
         rate = 1.0 if speed == 0 else speed_value(speed)
@@ -200,16 +209,37 @@ class MissionService:
         await self._record(lm, t, "pause", {}, {"status": "paused", "sim_time": t})
 
     async def resume(self, mission_id: int) -> None:
+        """Continue a paused mission, or rebuild an interrupted one and continue it.
+
+        Concurrent resumes of one interrupted mission share one rebuild (and its outcome):
+        a second engine for the same mission would be built, replayed and leaked.
+        """
+        lm = self.runner.live.get(mission_id)
+        if lm is None or self._revivals.busy(mission_id):
+            await self._revivals.run(mission_id, lambda: self._revive(mission_id))
+            return
+        if lm.finishing:
+            raise Conflict(f"mission {mission_id} is {lm.status}; it cannot be resumed")
+        await self._go(lm)
+
+    async def _revive(self, mission_id: int) -> None:
         lm = self.runner.live.get(mission_id)
         if lm is None:
             row = await self.row(mission_id)
             if row.status != "interrupted":
                 raise Conflict(f"mission {mission_id} is {row.status}; it cannot be resumed")
-            if self.runner.running_count() >= self.settings.max_running_missions:
-                raise LimitExceeded("too many live missions to resume another one")
-            lm = await revive(self.runner, self.store, row)
-        elif lm.finishing:
+            refusal = (
+                f"{self.settings.max_running_missions} missions are already live; "
+                "stop one before resuming another (REGOLITH_MAX_RUNNING_MISSIONS)"
+            )
+            with self.admission.place(refusal):
+                lm = await revive(self.runner, self.store, row)
+        elif lm.finishing:  # it came back live, and ended, before this rebuild started
             raise Conflict(f"mission {mission_id} is {lm.status}; it cannot be resumed")
+        await self._go(lm)
+
+    async def _go(self, lm: LiveMission) -> None:
+        """Unpause a live mission and record it."""
         changes: dict[str, Any] = {"status": "running"}
         with self.gate:
             if lm.row is not None and lm.row.started_at is None:
