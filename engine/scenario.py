@@ -15,9 +15,25 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-Coord = Annotated[float, Field(allow_inf_nan=False)]
+Coord = Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)]
+"""A position: far beyond any area (5 km sides) but bounded, so bucket arithmetic stays exact."""
+
+MIN_CRATER_R = 0.001
+MAX_CRATER_R = 1000.0
+CraterRadius = Annotated[float, Field(ge=MIN_CRATER_R, le=MAX_CRATER_R, allow_inf_nan=False)]
+"""A random crater's radius bound: the world stores craters to the millimetre (a smaller
+radius would round to a zero-radius crater, which `Crater` refuses mid-generation) and at
+most as big as an explicit crater may be."""
+
+MIN_PERIOD_S = 0.001
+"""The shortest protocol or work duration: every repeating timer must move simulated time
+forward (a 1e-300 s period added to t > 0 is t again, and the run never ends)."""
+Period = Annotated[float, Field(ge=MIN_PERIOD_S, allow_inf_nan=False)]
+MIN_HEARTBEAT_S = 1.0
+"""Each heartbeat is a broadcast to every robot; faster ones make a run cost robots² × time /
+heartbeat (0.1 s is already 60× the reference's wall time, 0.01 s does not finish)."""
+MIN_SPEED = 0.001
+"""1 mm/s: a path's length over a denormal speed overflows to an infinite travel time."""
 
 
 MAX_SEARCH_CELLS = 4_000_000
@@ -37,7 +53,7 @@ class Crater(_Model):
 
     x: Coord
     y: Coord
-    r: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)]
+    r: Annotated[float, Field(gt=0, le=MAX_CRATER_R, allow_inf_nan=False)]
 
 
 class Team(_Model):
@@ -51,15 +67,15 @@ class Team(_Model):
 class Speeds(_Model):
     """Driving speeds in metres per simulated second (a few km/h, like planetary rovers)."""
 
-    scout: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 1.0
-    excavator: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 0.5
-    hauler: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 0.8
+    scout: Annotated[float, Field(ge=MIN_SPEED, le=100, allow_inf_nan=False)] = 1.0
+    excavator: Annotated[float, Field(ge=MIN_SPEED, le=100, allow_inf_nan=False)] = 0.5
+    hauler: Annotated[float, Field(ge=MIN_SPEED, le=100, allow_inf_nan=False)] = 0.8
 
 
 class Timing(_Model):
     """Durations of physical work, in simulated seconds."""
 
-    dig_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 20.0
+    dig_s: Annotated[Period, Field(le=3600)] = 20.0
     transfer_s: Annotated[float, Field(ge=0, le=3600, allow_inf_nan=False)] = 5.0
     unload_s: Annotated[float, Field(ge=0, le=3600, allow_inf_nan=False)] = 5.0
 
@@ -67,11 +83,11 @@ class Timing(_Model):
 class Protocol(_Model):
     """Auction and liveness timing (simulated seconds)."""
 
-    bid_window_s: Annotated[float, Field(gt=0, le=600, allow_inf_nan=False)] = 1.0
-    ack_timeout_s: Annotated[float, Field(gt=0, le=600, allow_inf_nan=False)] = 2.0
-    retry_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 5.0
+    bid_window_s: Annotated[Period, Field(le=600)] = 1.0
+    ack_timeout_s: Annotated[Period, Field(le=600)] = 2.0
+    retry_s: Annotated[Period, Field(le=3600)] = 5.0
     award_collect_s: Annotated[float, Field(ge=0, le=600, allow_inf_nan=False)] = 0.2
-    heartbeat_s: Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)] = 10.0
+    heartbeat_s: Annotated[float, Field(ge=MIN_HEARTBEAT_S, le=3600, allow_inf_nan=False)] = 10.0
     failure_timeout_s: Annotated[float, Field(gt=0, le=36000, allow_inf_nan=False)] = 30.0
     probes: Annotated[int, Field(ge=0, le=20)] = 5
     busy_bid: Literal["once", "every_round"] = "once"
@@ -106,12 +122,12 @@ class Scenario(_Model):
     scan_radius: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 2.5
     craters: list[Crater] = Field(default_factory=list, max_length=2000)
     random_craters: Annotated[int, Field(ge=0, le=2000)] = 6
-    crater_radius: tuple[PositiveFloat, PositiveFloat] = (2.0, 5.0)
+    crater_radius: tuple[CraterRadius, CraterRadius] = (2.0, 5.0)
     speeds: Speeds = Speeds()
     timing: Timing = Timing()
     protocol: Protocol = Protocol()
     bus: BusConfig = BusConfig()
-    max_time_s: Annotated[float, Field(gt=0, le=1e7, allow_inf_nan=False)] = 200_000.0
+    max_time_s: Annotated[Period, Field(le=1e7)] = 200_000.0
     start_spread: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 3.0
 
     @property

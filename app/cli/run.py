@@ -144,7 +144,9 @@ def run(
     actions = parse_actions(fail, enable, add)
     try:
         metrics = run_mission(scen, seed, policy_name, actions)
-    except EngineError as exc:  # an action the mission refuses (unknown robot, bad time …)
+    except (EngineError, ScenarioError) as exc:
+        # an action the mission refuses (unknown robot, bad time …), or a world the scenario
+        # cannot make for this seed (sites that do not fit): the user's input, not a bug
         raise fail_usage(str(exc)) from None
     if json_out:
         typer.echo(json.dumps(_finite(metrics), sort_keys=True))

@@ -84,3 +84,22 @@ def test_a_bad_scenario_file_names_the_field(tmp_path: Path):
     out = CliRunner().invoke(cli, ["run", "--policy", "1", "--seed", "0", "--scenario", str(bad)])
     assert out.exit_code == 2
     assert "team.haulers" in out.output
+
+
+@pytest.mark.parametrize(
+    ("text", "says"),
+    [
+        ("crater_radius = [0.0001, 0.0004]\n", "crater_radius"),  # once a 500 and a traceback
+        ("crater_radius = [1.0, 5000.0]\n", "crater_radius"),
+        ("[protocol]\nheartbeat_s = 1e-300\nfailure_timeout_s = 1e-299\n", "heartbeat_s"),
+        ("[speeds]\nhauler = 1e-310\n", "speeds.hauler"),
+        ("start_spread = 100\n", "sites"),  # valid alone, but no world fits: still exit 2
+    ],
+)
+def test_a_scenario_that_cannot_run_is_one_line_and_exit_2(tmp_path: Path, text: str, says: str):
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    out = CliRunner().invoke(cli, ["run", "--policy", "1", "--seed", "0", "--scenario", str(path)])
+    assert out.exit_code == 2, out.output
+    lines = [ln for ln in out.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and says in lines[0], out.output
