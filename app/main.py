@@ -17,6 +17,7 @@ from app.api import errors
 from app.api.deps import Services
 from app.api.routes import api_router
 from app.api.routes import sweeps as sweep_routes
+from app.datalock import DataLock
 from app.db.migrate import upgrade
 from app.db.session import is_sqlite_file, make_engine, make_sessionmaker
 from app.middleware import (
@@ -32,6 +33,7 @@ from app.services.missions import MissionService
 from app.services.store import Store
 from app.services.sweeps import SweepManager
 from app.settings import Settings
+from app.startup import preflight
 
 log = logging.getLogger("regolith")
 
@@ -40,10 +42,13 @@ _NO_DASHBOARD = """<!doctype html><title>Regolith</title>
 """
 
 
-def _lifespan(settings: Settings):  # type: ignore[no-untyped-def]
+def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-untyped-def]
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         async with AsyncExitStack() as stack:
+            if held is None or not held.held:  # else `regolith serve` took it and keeps it
+                lock = await run_in_threadpool(preflight, settings)
+                stack.callback(lock.release)
             stack.callback(logs.uninstall, logs.install())
             token = resolve_token(settings)
             engine = make_engine(settings.database_url, autocheckpoint=False)
@@ -78,14 +83,18 @@ def _lifespan(settings: Settings):  # type: ignore[no-untyped-def]
     return lifespan
 
 
-def create_app(settings: Settings | None = None) -> FastAPI:
-    """A fresh application; nothing happens until its lifespan starts."""
+def create_app(settings: Settings | None = None, held: DataLock | None = None) -> FastAPI:
+    """A fresh application; nothing happens until its lifespan starts.
+
+    The lifespan takes the data folder's lock and checks the database (`app/startup.py`)
+    unless the caller already did and passes the lock it holds as `held`.
+    """
     settings = settings or Settings()
     app = FastAPI(
         title="Regolith",
         summary="Mission control for auction-based lunar mining robot teams",
         version="0.1.0",
-        lifespan=_lifespan(settings),
+        lifespan=_lifespan(settings, held),
     )
     errors.install(app)
     app.include_router(api_router)

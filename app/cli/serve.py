@@ -72,6 +72,7 @@ def serve(
     from app.main import create_app
     from app.security import resolve_token
     from app.settings import Settings
+    from app.startup import StartupRefused, preflight
 
     if not 0 < port < 65536:
         _fail("serve", f"--port {port}: must be between 1 and 65535")
@@ -85,6 +86,10 @@ def serve(
         token = resolve_token(settings)
     except OSError as exc:
         _fail("serve", f"--data-dir {settings.data_dir}: {exc.strerror or exc}", 1)
+    try:
+        lock = preflight(settings)  # held until this process ends
+    except StartupRefused as exc:
+        _fail("serve", str(exc), 1)
     shown = "(from REGOLITH_TOKEN)" if settings.token is not None else token
     where = f"{settings.data_dir / 'operator-token'}" if settings.token is None else "env"
     browse = "127.0.0.1" if host in ("0.0.0.0", "::") else host
@@ -98,7 +103,7 @@ def serve(
         "DEBUG" if log_level == "trace" else log_level.upper(),
     )
     uvicorn.run(
-        create_app(settings),
+        create_app(settings, held=lock),
         host=host,
         port=port,
         log_level=log_level,
@@ -123,9 +128,14 @@ def upgrade(
     from app.db.migrate import upgrade as do_upgrade
     from app.db.session import make_engine
     from app.settings import Settings
+    from app.startup import StartupRefused, preflight
 
     settings = _settings("db upgrade", db, data_dir)
     assert isinstance(settings, Settings)
+    try:
+        lock = preflight(settings)  # never migrate under a running server, nor a damaged file
+    except StartupRefused as exc:
+        _fail("db upgrade", str(exc), 1)
     try:
         engine = make_engine(settings.database_url)
         try:
@@ -134,6 +144,8 @@ def upgrade(
             engine.dispose()
     except (SQLAlchemyError, OSError) as exc:
         _fail("db upgrade", f"{type(exc).__name__}: {str(exc).splitlines()[0]}", 1)
+    finally:
+        lock.release()
     typer.echo(f"database at head: {settings.database_url}")
 
 

@@ -1,0 +1,90 @@
+"""One server per data folder: an exclusive `flock` on `<data dir>/regolith.lock`.
+
+Two servers on one SQLite file each believe they own its live missions and sweeps: each
+marks the other's missions interrupted at start, both checkpoint the WAL and write the same
+sweep folders. So a server (and `regolith db upgrade`) takes this lock first and holds it for
+its lifetime; the kernel drops it when the process ends, however it ends (kill -9 included),
+so a stale lock file never blocks a restart. The lock is on the data folder whatever the
+database (the folder also holds the token and the sweeps); a SQLite file outside the folder
+is locked too, through a `<file>.lock` beside it.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+from pathlib import Path
+
+LOCK_NAME = "regolith.lock"
+
+
+class DataDirBusy(RuntimeError):
+    """Another process holds the lock; the message names the folder and that process."""
+
+
+class DataLock:
+    """Exclusive locks on some files, held until `release()` or the end of the process."""
+
+    def __init__(self, paths: list[Path]) -> None:
+        self.paths = paths
+        self._fds: list[int] = []
+
+    def acquire(self) -> DataLock:
+        try:
+            for path in self.paths:
+                self._fds.append(_lock(path))
+        except BaseException:
+            self.release()
+            raise
+        return self
+
+    def release(self) -> None:
+        for fd in reversed(self._fds):
+            os.close(fd)  # closing the only descriptor drops the flock
+        self._fds.clear()
+
+    @property
+    def held(self) -> bool:
+        return bool(self._fds)
+
+
+def lock_paths(data_dir: Path, sqlite_file: Path | None) -> list[Path]:
+    """The data folder's lock, and one beside a SQLite file kept elsewhere."""
+    folder = data_dir.resolve()
+    paths = [folder / LOCK_NAME]
+    if sqlite_file is not None and sqlite_file.resolve().parent != folder:
+        db = sqlite_file.resolve()
+        paths.append(db.with_name(db.name + ".lock"))
+    return paths
+
+
+def _lock(path: Path) -> int:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # O_CLOEXEC (Python's default): a spawned helper never inherits, and so never keeps, it
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = _holder(fd)
+        os.close(fd)
+        what = "data folder" if path.name == LOCK_NAME else "database"
+        target = path.parent if path.name == LOCK_NAME else path.with_suffix("")
+        raise DataDirBusy(
+            f"{what} {target} is in use by another Regolith server{holder} "
+            f"(lock {path}); stop it first, or use another --data-dir"
+        ) from None
+    except BaseException:
+        os.close(fd)
+        raise
+    os.ftruncate(fd, 0)
+    os.write(fd, f"{os.getpid()}\n".encode())
+    return fd
+
+
+def _holder(fd: int) -> str:
+    """`" (pid N)"` from the lock file, if the holder wrote it."""
+    try:
+        text = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
+    except OSError:
+        return ""
+    return f" (pid {text})" if text.isdigit() else ""

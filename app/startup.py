@@ -1,0 +1,34 @@
+"""What must hold before a server (or a migration) touches the data: checked in one place.
+
+`regolith serve` runs this before uvicorn, so a refusal is one line on stderr and exit code
+1, not a lifespan traceback; an application started another way (tests, an embedding ASGI
+server) runs it in its lifespan instead. First the data folder's lock (one server per
+folder), then, holding it, the SQLite integrity check (nobody can be writing meanwhile).
+"""
+
+from __future__ import annotations
+
+from app.datalock import DataDirBusy, DataLock, lock_paths
+from app.db.integrity import CorruptDatabase, check_sqlite, sqlite_file
+from app.settings import Settings
+
+
+class StartupRefused(RuntimeError):
+    """The server must not start; the message says why, in one line."""
+
+
+def preflight(settings: Settings) -> DataLock:
+    """Take the data folder's lock and check the database; the caller releases the lock."""
+    path = sqlite_file(settings.database_url)
+    lock = DataLock(lock_paths(settings.data_dir, path))
+    try:
+        lock.acquire()
+        if path is not None:
+            check_sqlite(path)
+    except (DataDirBusy, CorruptDatabase) as exc:
+        lock.release()
+        raise StartupRefused(str(exc)) from None
+    except OSError as exc:
+        lock.release()
+        raise StartupRefused(f"data folder {settings.data_dir}: {exc.strerror or exc}") from None
+    return lock

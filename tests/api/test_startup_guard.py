@@ -1,0 +1,111 @@
+"""What a server refuses to start on: a data folder another server holds, a damaged database.
+
+Both refusals are one line on stderr and exit code 1 from `regolith serve` (and `regolith db
+upgrade`), before anything is written; the server already running is untouched.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.api.conftest import TOKEN, LiveServer, make_settings, run_to_end
+from tests.api.serve_process import ROOT, ServeProcess, free_port
+
+PAGE = 4096
+
+
+def _regolith(*args: str) -> subprocess.CompletedProcess[str]:
+    """The real command line, to its end (a refused start ends at once)."""
+    cmd = [sys.executable, "-c", "from app.cli import main; main()", *args]
+    env = {**os.environ, "REGOLITH_TOKEN": TOKEN}
+    return subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, timeout=120)
+
+
+def _serve(data: Path) -> subprocess.CompletedProcess[str]:
+    return _regolith("serve", "--port", str(free_port()), "--data-dir", str(data))
+
+
+def _one_line(result: subprocess.CompletedProcess[str], command: str, *says: str) -> str:
+    assert result.returncode == 1, (result.returncode, result.stdout, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith(f"regolith {command}: ")
+    for part in says:
+        assert part in lines[0], lines[0]
+    assert "Traceback" not in result.stderr
+    return lines[0]
+
+
+# the embedded server's refusal ends its thread with SystemExit(3), which pytest reports
+EMBEDDED_REFUSAL = pytest.mark.filterwarnings(
+    "ignore::pytest.PytestUnhandledThreadExceptionWarning"
+)
+
+
+@EMBEDDED_REFUSAL
+def test_a_second_server_on_the_same_data_folder_refuses_to_start(tmp_path: Path) -> None:
+    first = LiveServer(make_settings(tmp_path)).start()
+    try:
+        with first.client() as api:
+            mid = api.post("/api/missions", json={"paused": True}).json()["id"]
+            line = _one_line(_serve(tmp_path), "serve", str(tmp_path), "in use", str(os.getpid()))
+            assert "another Regolith server" in line
+            _one_line(
+                _regolith("db", "upgrade", "--data-dir", str(tmp_path)), "db upgrade", "in use"
+            )
+            second = LiveServer(make_settings(tmp_path))
+            with pytest.raises(RuntimeError):  # embedded (no CLI): the lifespan refuses too
+                second.start()
+            assert api.get("/api/health").status_code == 200
+            assert api.get(f"/api/missions/{mid}").json()["status"] == "paused"
+            assert api.post(f"/api/missions/{mid}/stop").status_code == 200
+    finally:
+        first.stop()
+    with ServeProcess(tmp_path) as srv, srv.client() as api:  # the lock went with the first
+        assert api.get(f"/api/missions/{mid}").json()["status"] == "stopped"
+
+
+def _damage(db: Path) -> None:
+    """Overwrite whole pages in the middle of the file (b-tree pages of the event table)."""
+    pages = db.stat().st_size // PAGE
+    assert pages > 20, pages
+    with db.open("r+b") as f:
+        for page in range(pages // 2, pages // 2 + 4):
+            f.seek(page * PAGE)
+            f.write(bytes([0xA5, 0x5A]) * (PAGE // 2))
+
+
+@EMBEDDED_REFUSAL
+def test_a_damaged_database_is_refused_with_what_is_wrong(tmp_path: Path) -> None:
+    good = tmp_path / "good"
+    server = LiveServer(make_settings(good)).start()
+    try:
+        with server.client() as api:
+            mid = api.post("/api/missions", json={"seed": 3, "speed": "max"}).json()["id"]
+            run_to_end(api, mid)
+    finally:
+        server.stop()
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    shutil.copy(good / "regolith.db", bad / "regolith.db")
+    _damage(bad / "regolith.db")
+    db = str(bad / "regolith.db")
+    line = _one_line(_serve(bad), "serve", db, "is damaged", "quick_check")
+    assert "backup" in line and "Page " in line  # the first problems, by page
+    _one_line(_regolith("db", "upgrade", "--data-dir", str(bad)), "db upgrade", db, "is damaged")
+    with pytest.raises(RuntimeError):  # embedded (no CLI): the lifespan refuses too
+        LiveServer(make_settings(bad)).start()
+    # the intact original still starts
+    with ServeProcess(good) as srv, srv.client() as api:
+        assert api.get(f"/api/missions/{mid}").json()["status"] == "completed"
+
+
+def test_a_file_that_is_not_a_database_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "regolith.db").write_bytes(b"this is not SQLite" * 1000)
+    _one_line(_serve(tmp_path), "serve", "is damaged", "not a database")
