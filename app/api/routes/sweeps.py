@@ -6,12 +6,17 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Path, Query, status
 from fastapi.responses import FileResponse
+from starlette.concurrency import run_in_threadpool
 from starlette.requests import HTTPConnection
 
-from app.api.deps import Operator, Viewer
+from app.api.deps import Operator, ServicesDep, Viewer
 from app.api.schemas import ErrorRead
 from app.api.sweep_schemas import SweepCreate, SweepDetail, SweepPage, SweepRead, SweepStatus
+from app.services.errors import Invalid
+from app.services.scenario_limits import check_size, check_world
 from app.services.sweeps import SweepManager
+from app.settings import Settings
+from engine import Scenario, ScenarioError, reference_scenario
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": ErrorRead, "description": text}
@@ -46,11 +51,25 @@ SweepsDep = Annotated[SweepManager, Depends(get_sweeps)]
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, dependencies=[Operator])
-async def start_sweep(body: SweepCreate, sweeps: SweepsDep) -> SweepRead:
+async def start_sweep(body: SweepCreate, sweeps: SweepsDep, services: ServicesDep) -> SweepRead:
     """Start every policy × seed in the background; poll `GET /api/sweeps/{id}` for progress."""
     seeds = body.seed_tuple()
+    await run_in_threadpool(_check_runs, services.settings, body.scenario, body.scale, seeds[0])
     fields = await sweeps.create([str(p) for p in body.policies], seeds, body.scale, body.scenario)
     return SweepRead.model_validate(fields)
+
+
+def _check_runs(settings: Settings, scenario: Scenario | None, scale: int, seed: int) -> None:
+    """The runs a sweep would make, refused up front like a mission: over this server's
+    robot or grid limits (before or after scaling), or no world for its first seed."""
+    base = scenario or reference_scenario()
+    check_size(settings, base)
+    try:
+        scaled = base.scaled(scale)
+    except ScenarioError as exc:
+        raise Invalid(str(exc), ("body", "scale")) from None
+    check_size(settings, scaled, ("body", "scale"), f" (at scale {scale})")
+    check_world(scaled, seed, ("body", "scenario") if scale == 1 else ("body", "scale"))
 
 
 @router.get("", dependencies=[Viewer])
