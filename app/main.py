@@ -18,8 +18,10 @@ from app.api.deps import Services
 from app.api.routes import api_router
 from app.api.routes import sweeps as sweep_routes
 from app.datalock import DataLock
+from app.db.integrity import sqlite_file
 from app.db.migrate import upgrade
-from app.db.session import is_sqlite_file, make_engine, make_sessionmaker
+from app.db.session import make_engine, make_sessionmaker
+from app.db.wal import WalCheckpointer
 from app.middleware import (
     LimitBodyMiddleware,
     RequestContextMiddleware,
@@ -54,8 +56,10 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
             engine = make_engine(settings.database_url, autocheckpoint=False)
             stack.callback(engine.dispose)
             await run_in_threadpool(upgrade, engine, settings.migrations_dir)
-            checkpoints = 1.0 if is_sqlite_file(engine) else None
-            store = Store(make_sessionmaker(engine), checkpoint_every_s=checkpoints)
+            if (path := sqlite_file(settings.database_url)) is not None:
+                wal = WalCheckpointer(engine, path)
+                stack.callback(wal.close)  # after the store's last write
+            store = Store(make_sessionmaker(engine))
             stack.callback(store.close)
             stale = await store.interrupt_stale()
             if stale:

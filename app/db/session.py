@@ -10,21 +10,22 @@ from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session, sessionmaker
 
+BUSY_TIMEOUT_MS = 10_000
+#: SQLite trims the WAL file to this size whenever it restarts the log (else the file keeps
+#: its largest size forever); see app/db/wal.py for the checkpoints that make it restart.
+JOURNAL_SIZE_LIMIT = 4 * 1024 * 1024
+
 
 def _sqlite_pragmas(dbapi_conn: Any, _record: Any, autocheckpoint: bool) -> None:
     cur = dbapi_conn.cursor()
     cur.execute("PRAGMA journal_mode=WAL")
     cur.execute("PRAGMA synchronous=NORMAL")
     cur.execute("PRAGMA foreign_keys=ON")
-    cur.execute("PRAGMA busy_timeout=10000")
-    if not autocheckpoint:  # the server checkpoints from its own thread (see Store)
+    cur.execute(f"PRAGMA busy_timeout={BUSY_TIMEOUT_MS}")
+    cur.execute(f"PRAGMA journal_size_limit={JOURNAL_SIZE_LIMIT}")
+    if not autocheckpoint:  # the server checkpoints from its own thread (app/db/wal.py)
         cur.execute("PRAGMA wal_autocheckpoint=0")
     cur.close()
-
-
-def is_sqlite_file(engine: Engine) -> bool:
-    url = engine.url
-    return url.get_backend_name() == "sqlite" and url.database not in (None, "", ":memory:")
 
 
 def make_engine(url: str, autocheckpoint: bool = True) -> Engine:

@@ -4,7 +4,8 @@ One thread keeps SQLite free of writer contention. Operator actions and status c
 ahead of queued event batches (`URGENT`), and batches are written in transactions of at
 most `CHUNK_ROWS` events, so an operator waits for at most one small transaction; that
 reordering is safe because a batch queued earlier only holds events from before the action.
-For a SQLite file the WAL is checkpointed by a separate thread, never inside a commit.
+For a SQLite file the WAL is checkpointed by a separate thread, never inside a commit
+(`app/db/wal.py`).
 Reads use the shared thread pool with their own sessions (WAL lets them run beside the
 writer).
 """
@@ -43,9 +44,7 @@ _STOP = (2, 0, None, None)
 class Store:
     """Async facade over a sessionmaker; writes are serialized on one thread."""
 
-    def __init__(
-        self, sessions: sessionmaker[Session], checkpoint_every_s: float | None = None
-    ) -> None:
+    def __init__(self, sessions: sessionmaker[Session]) -> None:
         self._sessions = sessions
         self._queue: queue.PriorityQueue[tuple[int, int, Any, Any]] = queue.PriorityQueue()
         self._order = itertools.count()
@@ -53,28 +52,6 @@ class Store:
         self.write_seconds = self.write_max = 0.0
         self._thread = threading.Thread(target=self._work, name="regolith-db", daemon=True)
         self._thread.start()
-        self._stop = threading.Event()
-        self._checkpointer: threading.Thread | None = None
-        if checkpoint_every_s is not None:
-            self._checkpointer = threading.Thread(
-                target=self._checkpoint_forever,
-                args=(checkpoint_every_s,),
-                name="regolith-checkpoint",
-                daemon=True,
-            )
-            self._checkpointer.start()
-
-    def _checkpoint(self, mode: str) -> None:
-        engine = self._sessions.kw["bind"]
-        try:
-            with engine.connect() as conn:
-                conn.exec_driver_sql(f"PRAGMA wal_checkpoint({mode})")
-        except Exception:  # a busy database is checkpointed next time
-            log.warning("WAL checkpoint failed", exc_info=True)
-
-    def _checkpoint_forever(self, every_s: float) -> None:
-        while not self._stop.wait(every_s):
-            self._checkpoint("PASSIVE")
 
     def _work(self) -> None:
         while True:
@@ -132,13 +109,9 @@ class Store:
         return await run_in_threadpool(_run)
 
     def close(self) -> None:
-        """Finish every queued write, then stop the writer (and checkpoint everything)."""
+        """Finish every queued write, then stop the writer."""
         self._queue.put(_STOP)
         self._thread.join()
-        if self._checkpointer is not None:
-            self._stop.set()
-            self._checkpointer.join()
-            self._checkpoint("TRUNCATE")
 
     # -- writes ------------------------------------------------------------------------
 
