@@ -16,15 +16,27 @@ import sys
 from contextvars import ContextVar, Token
 from datetime import UTC, datetime
 from typing import Any, Literal, TextIO
+from urllib.parse import unquote_plus
 
 LogFormat = Literal["json", "text"]
 
 request_id: ContextVar[str | None] = ContextVar("regolith_request_id", default=None)
 mission_id: ContextVar[int | None] = ContextVar("regolith_mission_id", default=None)
 
-# `?token=` on the live socket's URL; `Bearer …` in an Authorization header (uvicorn logs raw
-# ASGI scopes, headers included, at --log-level trace).
-_SECRETS = re.compile(r"(token=|bearer\s+|basic\s+)[^&\s\"'\\,)]+", re.IGNORECASE)
+# `Bearer …`/`Basic …` in an Authorization header (uvicorn logs raw ASGI scopes, headers
+# included, at --log-level trace; the websockets library logs handshake headers at debug).
+_SCHEMES = re.compile(r"(bearer\s+|basic\s+)[^&\s\"'\\,)]+", re.IGNORECASE)
+# Any `key=value` of a query string: the key is judged once percent-decoded (`?tok%65n=` is
+# `token` to the server), so no spelling of it slips through.
+_PAIRS = re.compile(r"(?P<key>[^\s?&=\"'\\,()\[\]{}<>]+)=(?P<value>[^&\s\"'\\,)]*)")
+# A browser can only send a socket's credentials as a subprotocol, so that header's values are
+# never logged in any form: a handshake line, an ASGI header pair, the scope's subprotocols.
+_SUBPROTOCOL = re.compile(
+    r"(sec-websocket-protocol:\s*)[^\r\n\"'\\]*"
+    r"|(sec-websocket-protocol['\"]?\s*,\s*b?['\"])[^'\"]*"
+    r"|(['\"]subprotocols?['\"]\s*:\s*)(?:\[[^\]]*\]|b?'[^']*'|b?\"[^\"]*\")",
+    re.IGNORECASE,
+)
 _LOGGERS = ("uvicorn.error", "uvicorn.access", "uvicorn.asgi", "regolith")
 #: Fields an access line (or any record given them as `extra`) adds to the JSON object.
 _FIELDS = (
@@ -39,9 +51,30 @@ _FIELDS = (
 )
 
 
+def _secret_key(key: str) -> bool:
+    """A query key that names a token once fully percent-decoded (`tok%2565n` too)."""
+    for _ in range(4):
+        decoded = unquote_plus(key)
+        if decoded == key:
+            break
+        key = decoded
+    return "token" in key.lower()
+
+
+def _pair(match: re.Match[str]) -> str:
+    if _secret_key(match["key"]):
+        return f"{match['key']}=***"
+    return match[0]
+
+
+def _subprotocol(match: re.Match[str]) -> str:
+    return f"{match[1] or match[2] or match[3]}***"
+
+
 def redact(text: str) -> str:
     """`text` with every token value replaced by `***`."""
-    return _SECRETS.sub(r"\1***", text)
+    text = _SUBPROTOCOL.sub(_subprotocol, text)
+    return _SCHEMES.sub(r"\1***", _PAIRS.sub(_pair, text))
 
 
 class RedactTokens(logging.Filter):

@@ -128,6 +128,41 @@ def test_secrets_are_redacted_wherever_they_appear() -> None:
     )
 
 
+def test_query_keys_are_judged_decoded_and_subprotocols_never_logged() -> None:
+    assert logs.redact("< GET /live?tok%65n=s3cret HTTP/1.1") == "< GET /live?tok%65n=*** HTTP/1.1"
+    assert logs.redact("/live?a=1&tok%2565n=s3cret&b=2") == "/live?a=1&tok%2565n=***&b=2"
+    assert logs.redact("'query_string': b'%74OKEN=s3cret'") == "'query_string': b'%74OKEN=***'"
+    assert logs.redact("level=x scope=y") == "level=x scope=y"  # other pairs are kept
+    assert logs.redact("< Sec-WebSocket-Protocol: s3cret, v1") == "< Sec-WebSocket-Protocol: ***"
+    assert logs.redact("[(b'sec-websocket-protocol', b's3cret'), (b'host', b'h')]") == (
+        "[(b'sec-websocket-protocol', b'***'), (b'host', b'h')]"
+    )
+    assert logs.redact("{'subprotocols': ['s3cret'], 'x': 1}") == "{'subprotocols': ***, 'x': 1}"
+    assert logs.redact("{'subprotocol': 's3cret'}") == "{'subprotocol': ***}"
+
+
+def test_serve_never_logs_an_encoded_query_token_or_a_subprotocol(tmp_path: Path) -> None:
+    """`?tok%65n=` is `token` to the server and was logged whole; so was a token offered as a
+    WebSocket subprotocol (the websockets library logs handshake headers at debug, uvicorn
+    the ASGI scope and messages at trace)."""
+    with (
+        ServeProcess(tmp_path, "--log-format", "json", "--log-level", "trace") as srv,
+        srv.client() as api,
+    ):
+        mid = api.post("/api/missions", json={"paused": True, "planner": "straight"}).json()["id"]
+        base = f"ws://127.0.0.1:{srv.port}/api/missions/{mid}/live"
+        for query in (f"?tok%65n={TOKEN}", f"?%74oken={TOKEN}", f"?a=1&tok%2565n={TOKEN}"):
+            with connect(base + query) as ws:
+                assert json.loads(ws.recv(timeout=10))["type"] == "snapshot"
+        with connect(base, subprotocols=[TOKEN]) as ws:  # type: ignore[list-item]
+            assert json.loads(ws.recv(timeout=10))["type"] == "snapshot"
+    lines = _lines(srv.stderr())
+    assert not [ln["msg"] for ln in lines if TOKEN in json.dumps(ln)]
+    accepted = [ln["msg"] for ln in lines if ln["msg"].endswith("[accepted]")]
+    assert len(accepted) == 4 and any("tok%65n=***" in msg for msg in accepted)
+    assert any(ln["msg"].lower() == "< sec-websocket-protocol: ***" for ln in lines)
+
+
 def test_request_id_is_kept_only_if_sane_and_mission_id_comes_from_the_path() -> None:
     def scope(value: bytes) -> dict[str, Any]:
         return {"headers": [(b"x-request-id", value)]}
