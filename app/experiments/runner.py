@@ -21,6 +21,7 @@ from typing import Any
 
 from app.experiments.bound import BoundFn, engine_bound
 from app.experiments.journal import Journal, RunKey, check_manifest, exclusive
+from app.experiments.lifeline import die_with
 from app.experiments.outputs import write_outputs
 from app.experiments.spec import SweepSpec, scenario_dict
 from app.experiments.worker import RunFn, engine_fingerprint, execute_run
@@ -80,7 +81,8 @@ def local_pool(workers: int | None = None) -> ProcessPoolExecutor:
 
     Workers come from a fork server that has imported the engine once: as quick to start as
     a fork (~1 s saved per worker over spawn) without forking a parent whose threads (the
-    progress bar, a web server) may hold locks. Spawn where there is no fork server.
+    progress bar, a web server) may hold locks. Spawn where there is no fork server. Every
+    worker dies with this process, even a `kill -9` of it (`lifeline.die_with`).
     """
     n = workers or os.cpu_count() or 1
     if "forkserver" in multiprocessing.get_all_start_methods():
@@ -88,7 +90,9 @@ def local_pool(workers: int | None = None) -> ProcessPoolExecutor:
         ctx.set_forkserver_preload(["app.experiments.worker"])  # imports the engine
     else:  # pragma: no cover - Windows
         ctx = multiprocessing.get_context("spawn")
-    return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
+    return ProcessPoolExecutor(
+        max_workers=n, mp_context=ctx, initializer=die_with, initargs=(os.getpid(),)
+    )
 
 
 def run_sweep(
