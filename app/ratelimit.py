@@ -1,4 +1,10 @@
-"""Rate limiting of mutating calls: a token bucket per client address."""
+"""Rate limiting of mutating calls: a token bucket per key (the operator's credential, or the
+address of a client without it; `app/api/deps.py` picks the key after authenticating).
+
+Hand-written rather than a library's: a dozen lines of exact token-bucket semantics (the
+documented rate and burst, and the wait for `Retry-After`), bounded memory, no lock needed
+on the event loop. `limits` (PyPI) offers fixed and sliding windows, not a bucket, and would
+be a new dependency for the same result."""
 
 from __future__ import annotations
 
@@ -15,7 +21,7 @@ class RateLimiter:
         self._buckets: dict[str, tuple[float, float]] = {}
 
     def allow(self, client: str) -> float:
-        """0 if `client` may go now, else the seconds until it may."""
+        """0 if `client` (a key) may go now, else the seconds until it may."""
         if self.rate <= 0:
             return 0.0
         now = monotonic()

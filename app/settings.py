@@ -8,6 +8,8 @@ from typing import Annotated
 from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from app.clientaddr import parse_networks
+
 _REPO_ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -45,6 +47,7 @@ class Settings(BaseSettings):
 
     rate_limit_per_s: Annotated[float, Field(ge=0, le=100_000)] = 20.0
     rate_limit_burst: Annotated[int, Field(ge=1, le=100_000)] = 60
+    trusted_proxies: list[str] = Field(default_factory=list, max_length=256)
 
     cors_origins: list[str] = Field(default_factory=list)
     frontend_dir: Path = Field(default_factory=lambda: _beside_repo("frontend"))
@@ -56,6 +59,11 @@ class Settings(BaseSettings):
         if v is not None and (len(v.get_secret_value()) < 16 or "changeme" in v.get_secret_value()):
             raise ValueError("REGOLITH_TOKEN must be at least 16 characters and not a placeholder")
         return v
+
+    @field_validator("trusted_proxies")
+    @classmethod
+    def _networks(cls, v: list[str]) -> list[str]:
+        return [str(net) for net in parse_networks(v)]
 
     @property
     def database_url(self) -> str:

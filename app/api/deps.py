@@ -10,6 +10,7 @@ from fastapi import Depends, HTTPException, Path, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.requests import HTTPConnection
 
+from app.clientaddr import client_address
 from app.ratelimit import RateLimiter
 from app.runner import MissionRunner
 from app.security import token_matches
@@ -76,17 +77,34 @@ def check_token(credentials: HTTPAuthorizationCredentials | None, expected: str)
         raise HTTPException(status.HTTP_403_FORBIDDEN, "operator token is wrong")
 
 
-async def require_operator(request: Request, credentials: Credentials) -> AsyncIterator[None]:
-    """The operator token; while the request runs the simulation yields the CPU to it."""
-    services = get_services(request)
-    wait = services.limiter.allow(request.client.host if request.client else "?")
+OPERATOR_KEY = "operator"
+"""The rate-limit bucket of whoever holds the operator token (there is one token)."""
+
+
+def _limit(limiter: RateLimiter, key: str) -> None:
+    wait = limiter.allow(key)
     if wait > 0:
         raise HTTPException(
             status.HTTP_429_TOO_MANY_REQUESTS,
             f"too many operator requests; retry in {wait:.1f} s",
             headers={"Retry-After": str(max(1, round(wait)))},
         )
-    check_token(credentials, services.token)
+
+
+async def require_operator(request: Request, credentials: Credentials) -> AsyncIterator[None]:
+    """The operator token; while the request runs the simulation yields the CPU to it.
+
+    Authentication comes first, so the rate limit is charged to the right party: the
+    operator's allowance is its own, and requests without the right token are limited per
+    client address (a flood of them cannot use up the operator's calls)."""
+    services = get_services(request)
+    given = credentials.credentials if credentials is not None else ""
+    if credentials is not None and token_matches(given, services.token):
+        _limit(services.limiter, OPERATOR_KEY)
+    else:
+        address = client_address(request, services.settings.trusted_proxies)
+        _limit(services.limiter, f"address:{address}")
+        check_token(credentials, services.token)
     stepper = services.runner.stepper
     stepper.operators += 1
     try:

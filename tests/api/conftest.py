@@ -38,7 +38,11 @@ class LiveServer:
         sock.bind(("127.0.0.1", self.port))
         self.port = sock.getsockname()[1]
         config = uvicorn.Config(
-            create_app(self.settings), log_level="warning", ws_max_size=65536, lifespan="on"
+            create_app(self.settings),
+            log_level="warning",
+            ws_max_size=65536,
+            lifespan="on",
+            proxy_headers=False,  # REGOLITH_TRUSTED_PROXIES decides whose X-Forwarded-For counts
         )
         self._server = server = uvicorn.Server(config)
         self._thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
