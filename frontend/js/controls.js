@@ -40,7 +40,6 @@ export function bindControls(view) {
       const res = await run("Speed", async () => {
         if (raw === "0") return post(path("/pause"));
         const speed = raw === "max" ? "max" : Number(raw);
-        if (view.state.status === "interrupted") await post(path("/resume")); // rebuilt by replay
         const out = await put(path("/speed"), { speed });
         if (view.state.status === "paused") return post(path("/resume"));
         return out;
@@ -86,8 +85,10 @@ export function bindControls(view) {
 
   function pick(x, y) {
     if (!view.state.map) return;
-    if (!isOperator() || view.finished) {
-      toast(view.finished ? "The mission has ended; it takes no new tasks." : "Read-only: enter an operator token to inject tasks.");
+    if (!isOperator() || !view.live) {
+      if (view.finished) toast("The mission has ended; it takes no new tasks.");
+      else if (!isOperator()) toast("Read-only: enter an operator token to inject tasks.");
+      else toast(`The mission is ${view.state.status || "not live yet"}; it takes no tasks until it runs again.`);
       return;
     }
     form.x.value = fmt(x, 1);

@@ -1,16 +1,17 @@
 // The live mission view: one WebSocket stream feeding the map, the robot list, the auction
-// feed and the charts; the operator's controls call the REST API.
+// feed and the charts; the operator's controls call the REST API. The mission's status is
+// the server's word only (status.js): frames move robots and the clock, never the status.
 
-import { $, $$, clock, fmt, h, toast } from "./dom.js";
+import { $, clock, fmt, h, toast } from "./dom.js";
 import { get, getToken, isOperator, qs } from "./api.js";
 import { MapView } from "./mapview.js";
 import { AuctionFeed } from "./feed.js";
 import { RobotTable } from "./robots.js";
 import { LiveCharts } from "./livecharts.js";
 import { bindControls } from "./controls.js";
-import { POLICY_LABEL, robotType } from "./palette.js";
+import { robotType } from "./palette.js";
+import { ENDED, LIVE, MissionStatus } from "./status.js";
 
-const FINISHED = new Set(["completed", "stopped", "timeout", "failed", "cancelled"]);
 const DETAIL_MS = 1000;
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
 
@@ -37,6 +38,7 @@ export class LiveView {
     });
     this.charts = new LiveCharts(this);
     this.controls = bindControls(this);
+    this.status = new MissionStatus(this);
     $("#toggle-truth").addEventListener("change", (e) => this.map.setOption("truth", e.target.checked));
     $("#toggle-paths").addEventListener("change", (e) => this.map.setOption("paths", e.target.checked));
     $("#toggle-labels").addEventListener("change", (e) => this.map.setOption("labels", e.target.checked));
@@ -82,8 +84,14 @@ export class LiveView {
     out.textContent = text;
   }
 
+  /** Ended for good (completed, stopped, stalled, …): shown from its record. */
   get finished() {
-    return FINISHED.has(this.state.status);
+    return ENDED.has(this.state.status);
+  }
+
+  /** Running or paused: the only states in which controls work. */
+  get live() {
+    return LIVE.has(this.state.status);
   }
 
   /** Show mission `id` (or nothing), reconnecting the stream. */
@@ -95,6 +103,7 @@ export class LiveView {
     $("#live").hidden = !id;
     if (!id) return;
     this.state = this._empty();
+    this._status({ error: null });
     this.feed.reset();
     this.table.reset();
     this.charts.reset();
@@ -168,7 +177,8 @@ export class LiveView {
       case "event":
         return this._event(msg.event);
       case "status":
-        return this._status(msg);
+        this._status(msg);
+        return ENDED.has(msg.status) ? this.status.settle() : undefined;
       default:
         return undefined;
     }
@@ -183,12 +193,11 @@ export class LiveView {
     this.map.setDropped(snap.dropped || []);
     for (const a of snap.auctions || []) this.feed.upsert(a, { flash: false });
     this._setDetail(snap.robots || []);
-    this._status({
-      status: msg.mission?.status ?? snap.status,
-      policy: snap.policy ?? msg.mission?.policy,
-      speed: msg.mission?.speed,
-    });
-    this._frame({ ...snap, type: "frame" }, { snap: true });
+    // the record's status, never the engine's (a stored state says "running" after a stop
+    // or a restart); the record's policy is the current one
+    const m = msg.mission || {};
+    this._status({ status: m.status, policy: m.policy ?? snap.policy, speed: m.speed, error: m.error ?? null });
+    this._frame({ ...snap, t: snap.t ?? m.sim_time, type: "frame" }, { snap: true });
   }
 
   _frame(f, { snap = false } = {}) {
@@ -197,7 +206,6 @@ export class LiveView {
     s.frames += 1;
     s.lastFrame = f;
     if (f.counters) s.counters = f.counters;
-    if (f.status && f.status !== s.status && !(s.status === "paused" && f.status === "running")) this._status({ status: f.status });
     const robots = f.robots || [];
     // keep only the per-frame fields: task, distance and path come from the robot list
     for (const r of robots) s.robots.set(r.name, pick(r, FRAME_FIELDS));
@@ -282,32 +290,14 @@ export class LiveView {
     if (site.x !== undefined) this.map.setSites([site]);
   }
 
+  /** The server said so (snapshot record, status message, a control's answer). */
   _status(m) {
-    const s = this.state;
-    if (m.status) s.status = m.status;
-    if (m.policy) s.policy = m.policy;
-    if (m.speed !== undefined && m.speed !== null) s.speed = m.speed;
-    const st = $("#live-status");
-    st.textContent = s.status;
-    st.dataset.status = s.status;
-    const pol = $("#live-policy");
-    pol.dataset.policy = s.policy;
-    pol.title = `Current policy: ${POLICY_LABEL[s.policy] || s.policy}`;
-    const sel = $("#policy-select");
-    if (document.activeElement !== sel && s.policy) sel.value = s.policy;
-    const paused = s.status === "paused" || String(s.speed) === "0";
-    for (const b of $$("[data-speed]")) {
-      const on = paused ? b.dataset.speed === "0" : String(b.dataset.speed) === String(s.speed);
-      b.setAttribute("aria-pressed", on ? "true" : "false");
-    }
-    this.applyControl();
+    this.status.set(m);
   }
 
   /** Enable or disable every control for the current token and mission state. */
   applyControl() {
-    const can = isOperator() && Boolean(this.id) && !this.finished;
-    for (const el of $$("#live [data-control]")) if (!el.closest("#robot-table")) el.disabled = !can;
-    this.table.setControl(isOperator(), this.finished);
+    this.status.apply();
   }
 
   _setDetail(list) {

@@ -1,0 +1,155 @@
+// A mission's status as the server reports it, and what it allows.
+//
+// The status comes only from the server's word on the mission: the snapshot's `mission`
+// record, `status` messages and the answers to control calls. Frames never set it: they
+// carry the engine's own view ("running" until the simulation ends), which knows nothing of
+// the service's states (paused, interrupted), so a frame would overwrite the truth with a
+// guess. This module shows the status (badge, notice, Resume) and enables the controls.
+
+import { $, $$, clock, toast } from "./dom.js";
+import { get, isOperator, post } from "./api.js";
+import { POLICY_LABEL } from "./palette.js";
+
+/** A mission in one of these has ended for good: shown from its record, never resumed. */
+export const ENDED = new Set(["completed", "timeout", "stopped", "stalled", "failed", "cancelled"]);
+/** Only these take commands (policy, speed, stop, robots, tasks). */
+export const LIVE = new Set(["running", "paused"]);
+/** Rebuilt from its record by POST /api/missions/{id}/resume. */
+export const RESUMABLE = new Set(["interrupted"]);
+
+const ENDINGS = {
+  completed: "every mineral was delivered",
+  timeout: "it reached the scenario's time limit",
+  stopped: "an operator stopped it",
+  stalled: "it made no progress for the configured time",
+  failed: "the simulation raised an error",
+  cancelled: "it was cancelled",
+};
+
+/** The sentence under the toolbar for a status, or "" when the badge says enough. */
+export function notice(status, { operator = false, error = null } = {}) {
+  if (RESUMABLE.has(status)) {
+    const next = operator ? "Resume rebuilds it from its record and continues." : "An operator can resume it.";
+    return `Interrupted: the server stopped while this mission was live, so it is frozen at its last stored state and takes no commands. ${next}`;
+  }
+  if (ENDED.has(status)) {
+    const why = ENDINGS[status] || status;
+    return `Ended (${status}): ${why}${status === "failed" && error ? ` (${error})` : ""}. This is its stored final state; it cannot be resumed.`;
+  }
+  return "";
+}
+
+const SETTLE_TRIES = 20;
+const SETTLE_MS = 250;
+
+export class MissionStatus {
+  constructor(view) {
+    this.view = view;
+    this.resuming = false;
+    this.error = null;
+    this.settling = null;
+    $("#resume-button").addEventListener("click", () => this.resume());
+  }
+
+  get status() {
+    return this.view.state.status;
+  }
+
+  /** Apply what the server said: {status?, policy?, speed?, error?}. */
+  set(m) {
+    const s = this.view.state;
+    if (m.status) s.status = m.status;
+    if (m.policy) s.policy = m.policy;
+    if (m.speed !== undefined && m.speed !== null) s.speed = m.speed;
+    if (m.error !== undefined) this.error = m.error;
+    const st = $("#live-status");
+    st.textContent = s.status || "…";
+    st.dataset.status = s.status;
+    const pol = $("#live-policy");
+    pol.dataset.policy = s.policy;
+    pol.title = `Current policy: ${POLICY_LABEL[s.policy] || s.policy}`;
+    const sel = $("#policy-select");
+    if (document.activeElement !== sel && s.policy) sel.value = s.policy;
+    const paused = s.status === "paused" || String(s.speed) === "0";
+    for (const b of $$("[data-speed]")) {
+      const on = LIVE.has(s.status) && (paused ? b.dataset.speed === "0" : String(b.dataset.speed) === String(s.speed));
+      b.setAttribute("aria-pressed", on ? "true" : "false");
+    }
+    this.apply();
+  }
+
+  /** Enable the controls that can work now: an operator's, on a live mission only. */
+  apply() {
+    const view = this.view;
+    const status = this.status;
+    const live = LIVE.has(status);
+    const can = isOperator() && Boolean(view.id) && live;
+    for (const el of $$("#live [data-control]")) {
+      if (!el.closest("#robot-table") && el.id !== "resume-button") el.disabled = !can;
+    }
+    view.table.setControl(isOperator(), !live);
+    if (!live) view.controls?.closePick();
+    const resume = $("#resume-button");
+    resume.hidden = !(isOperator() && RESUMABLE.has(status));
+    resume.disabled = resume.hidden || this.resuming;
+    resume.textContent = this.resuming ? "Resuming…" : "Resume";
+    const box = $("#live-notice");
+    const text = view.id ? notice(status, { operator: isOperator(), error: this.error }) : "";
+    box.hidden = !text;
+    box.dataset.status = status;
+    if (box.textContent !== text) box.textContent = text;
+  }
+
+  /** Rebuild an interrupted mission by replay on the server and continue it live. */
+  async resume() {
+    const id = this.view.id;
+    if (!id || this.resuming) return;
+    this.resuming = true;
+    this.apply();
+    try {
+      const m = await post(`/missions/${encodeURIComponent(id)}/resume`);
+      if (id === this.view.id) this.set({ status: m.status, policy: m.policy, speed: m.speed });
+      toast(`Mission ${id} resumed`);
+    } catch (err) {
+      toast(`Resume: ${err.message}`, "error");
+      this.settle(() => true); // whatever happened, show what the record now says
+    } finally {
+      this.resuming = false;
+      if (id === this.view.id) this.apply();
+    }
+  }
+
+  /**
+   * The stream said the mission ended: show the ending as stored (status, error, final
+   * simulation time) once the record holds it, rather than the last frame's guess.
+   * `ready(record)` says when the record is there (by default: it holds an ending).
+   */
+  settle(ready = (m) => ENDED.has(m.status)) {
+    const id = this.view.id;
+    if (!id || this.settling === id) return;
+    this.settling = id;
+    const path = `/missions/${encodeURIComponent(id)}`;
+    const attempt = async (left) => {
+      if (id !== this.view.id) return;
+      let m = null;
+      try {
+        m = await get(path);
+      } catch {
+        /* retried below */
+      }
+      if (id !== this.view.id) return;
+      if ((m && ready(m)) || left <= 0) {
+        this.settling = null;
+        if (!m) return;
+        this.set({ status: m.status, policy: m.policy, error: m.error ?? null });
+        if (ENDED.has(m.status) && Number.isFinite(m.sim_time)) {
+          this.view.state.t = m.sim_time;
+          $("#live-time").textContent = clock(m.sim_time);
+        }
+        return;
+      }
+      setTimeout(() => attempt(left - 1), SETTLE_MS);
+    };
+    attempt(SETTLE_TRIES);
+  }
+}
