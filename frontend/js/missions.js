@@ -3,6 +3,7 @@
 import { $, h, fmt, toast } from "./dom.js";
 import { get, isOperator, post, qs } from "./api.js";
 import { POLICY_LABEL } from "./palette.js";
+import { ENDED } from "./status.js";
 import { parseToml } from "./toml.js";
 
 const PAGE = 20;
@@ -155,7 +156,8 @@ export class MissionsPage {
   }
 }
 
-const FINISHED = new Set(["completed", "stopped", "timeout", "failed", "interrupted"]);
+// an interrupted mission's metrics change again once it is resumed: only endings are cached
+const FINISHED = ENDED;
 const metricsCache = new Map(); // mission id -> metrics of a mission that has ended
 
 /** A mission's metrics (live or final); those of ended missions are read once. */
