@@ -119,6 +119,14 @@ class Server:
         self.stop()
         return False
 
+    def restart(self) -> Server:
+        """Stop cleanly (live missions become `interrupted`) and start again on the same port
+        and data folder, so an open page reconnects to the new process by itself."""
+        self.stop()
+        if not self._launch():
+            raise RuntimeError(f"the server did not restart; see {self.log}:\n{self.log_text()}")
+        return self
+
     def stop(self) -> None:
         if self.proc is not None and self.proc.poll() is None:
             self.proc.terminate()
