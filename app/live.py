@@ -152,7 +152,7 @@ async def _read_until_closed(ws: WebSocket, max_message: int) -> int | None:
             return CLOSE_BAD_DATA
         try:
             json.loads(text)
-        except ValueError:
+        except (ValueError, RecursionError):  # 4 KB of '[' is deeper than the parser goes
             return CLOSE_BAD_DATA
 
 

@@ -201,7 +201,14 @@ def _closed_with(ws: ClientConnection) -> int:
 
 @pytest.mark.parametrize(
     ("message", "code"),
-    [("x" * 5000, 1009), (b"\x00\x01", 1003), ("not json", 1003), ("y" * 100_000, 1009)],
+    [
+        ("x" * 5000, 1009),
+        (b"\x00\x01", 1003),
+        ("not json", 1003),
+        ("y" * 100_000, 1009),
+        ("[" * 4000, 1003),  # under the size limit, but deeper than the parser: RecursionError
+        ("[" * 2000 + "]" * 2000, 1003),  # well-formed, just as deep
+    ],
 )
 def test_bad_socket_input_closes_that_socket_on_a_real_server(
     server: LiveServer, api: httpx.Client, message: str | bytes, code: int
@@ -214,6 +221,19 @@ def test_bad_socket_input_closes_that_socket_on_a_real_server(
         other.send("{}")  # the other viewer is untouched
         api.post(f"/api/missions/{mid}/resume").raise_for_status()
         assert recv(other)["type"] in ("frame", "status", "event", "auction")
+
+
+@pytest.mark.parametrize("mission_id", [10**30, 2**31, 0])
+def test_a_socket_for_an_impossible_mission_id_closes_with_1008(
+    server: LiveServer, mission_id: int
+) -> None:
+    """10**30 once raised OverflowError in the database driver, unhandled."""
+    with server.ws(mission_id) as ws, pytest.raises(ConnectionClosed) as closed:
+        ws.recv(timeout=10)
+    assert closed.value.rcvd is not None and closed.value.rcvd.code == 1008
+    assert "mission_id" in closed.value.rcvd.reason
+    with server.ws(2**31 - 1) as ws:  # the largest id is merely unknown
+        assert _closed_with(ws) == 4404
 
 
 def test_socket_needs_the_token_when_reads_do(tmp_path: Path) -> None:

@@ -18,6 +18,9 @@ router = APIRouter(tags=["live"])
 
 CLOSE_NOT_FOUND = 4404
 CLOSE_BUSY = 1013
+MAX_ID = 2**31 - 1
+"""Ids are 32-bit like the REST routes' `MissionId`; checked after accepting, so the client
+sees a close code and reason rather than a refused handshake."""
 
 
 def _render(row: MissionRow, state: LiveState | None) -> dict[str, Any]:
@@ -30,6 +33,9 @@ async def live(ws: WebSocket, mission_id: int) -> None:
     services = get_services(ws)
     settings = services.settings
     await ws.accept()
+    if not 1 <= mission_id <= MAX_ID:  # 10**30 overflowed the database driver (a 500)
+        await ws.close(code=CLOSE_POLICY, reason=f"mission_id: must be 1..{MAX_ID}")
+        return
     if settings.read_requires_token:
         given = ws.query_params.get("token", "")
         if not token_matches(given, services.token):
