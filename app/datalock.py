@@ -67,11 +67,11 @@ def _lock(path: Path) -> int:
     except BlockingIOError:
         holder = _holder(fd)
         os.close(fd)
-        what = "data folder" if path.name == LOCK_NAME else "database"
-        target = path.parent if path.name == LOCK_NAME else path.with_suffix("")
+        folder = path.name == LOCK_NAME
+        what = f"data folder {path.parent}" if folder else f"database {path.with_suffix('')}"
         raise DataDirBusy(
-            f"{what} {target} is in use by another Regolith server{holder} "
-            f"(lock {path}); stop it first, or use another --data-dir"
+            f"{what} is in use by another Regolith server ({holder}lock {path}); "
+            f"stop it first, or use another {'--data-dir' if folder else '--db'}"
         ) from None
     except BaseException:
         os.close(fd)
@@ -82,9 +82,9 @@ def _lock(path: Path) -> int:
 
 
 def _holder(fd: int) -> str:
-    """`" (pid N)"` from the lock file, if the holder wrote it."""
+    """`"pid N; "` from the lock file, if the holder wrote it."""
     try:
         text = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
     except OSError:
         return ""
-    return f" (pid {text})" if text.isdigit() else ""
+    return f"pid {text}; " if text.isdigit() else ""
