@@ -5,11 +5,15 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
+from app.experiments.spec import MAX_SEED
 from engine import POLICIES, POLICY_NAMES, Scenario, resolve_policy
 
-Finite = Annotated[float, Field(allow_inf_nan=False, ge=-1e7, le=1e7)]
+# Request fields are strict: JSON `true` is not the number 1 (`"speed": true` ran at 1.0) and
+# `"5"` is not 5. Points stay lists in JSON, so strictness goes on their numbers, not the tuple.
+Finite = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-1e7, le=1e7)]
+Seed = Annotated[int, Field(strict=True, ge=0, le=MAX_SEED)]
 Point = tuple[Finite, Finite]
 Name = Annotated[str, Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.:/-]+$")]
 RobotType = Literal["scout", "excavator", "hauler"]
@@ -23,12 +27,22 @@ def _policy(value: str | int) -> str:
     return resolve_policy(value)
 
 
+def _policy_input(value: Any) -> Any:
+    """A name or a whole number only: as a Literal, `false` equalled 0 (the central baseline)
+    and `1.0` equalled 1; pydantic cannot make a Literal strict, so this check does."""
+    if isinstance(value, bool) or not isinstance(value, (str, int)):
+        raise ValueError("expected a policy name or number")
+    return value
+
+
 # The schema lists the policies registered when the app is imported: names or numbers.
 _NAMES = Literal[tuple(sorted(POLICIES))]  # type: ignore[valid-type]
 _NUMBERS = Literal[tuple(sorted(POLICY_NAMES))]  # type: ignore[valid-type]
-PolicyName = Annotated[_NAMES | _NUMBERS, AfterValidator(_policy)]  # type: ignore[valid-type]
+PolicyName = Annotated[  # type: ignore[valid-type]
+    _NAMES | _NUMBERS, BeforeValidator(_policy_input), AfterValidator(_policy)
+]
 PolicyFilter = _NAMES
-Speed = Annotated[float, Field(ge=0, le=10_000, allow_inf_nan=False)] | Literal["max"]
+Speed = Annotated[float, Field(strict=True, ge=0, le=10_000, allow_inf_nan=False)] | Literal["max"]
 
 
 class _In(BaseModel):
@@ -39,9 +53,9 @@ class MissionCreate(_In):
     """A new live mission. `planner="straight"` trades path realism for speed (tests)."""
 
     policy: PolicyName = "fcfs"
-    seed: Annotated[int, Field(ge=0, le=2**31 - 1)] = 0
+    seed: Seed = 0
     speed: Speed = 1.0
-    paused: bool = False
+    paused: Annotated[bool, Field(strict=True)] = False
     scenario: Scenario | None = None
     planner: Literal["ompl", "straight"] = "ompl"
 

@@ -7,7 +7,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
-from app.api.schemas import PolicyName
+from app.api.schemas import PolicyName, Seed
 from app.experiments.spec import SpecError, parse_seeds
 from app.services.errors import Invalid
 from engine import Scenario
@@ -16,7 +16,6 @@ MAX_SEEDS = 100_000
 """Seeds a request may name at all (the server's run limit is usually far lower); checked
 before a seed list is built, so `"0-999999999"` costs nothing."""
 
-Seed = Annotated[int, Field(ge=0, le=2**31 - 1)]
 SweepStatus = Literal["running", "cancelling", "completed", "cancelled", "failed", "interrupted"]
 
 
@@ -75,7 +74,7 @@ class SweepCreate(_In):
         default_factory=lambda: [1, 2, 3], description="numbers or names, e.g. [1, 2, 3]"
     )
     seeds: Seeds = "0-9"
-    scale: Annotated[int, Field(ge=1, le=16)] = 1
+    scale: Annotated[int, Field(strict=True, ge=1, le=16)] = 1
     scenario: Scenario | None = None
 
     def seed_tuple(self) -> tuple[int, ...]:

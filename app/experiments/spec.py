@@ -75,6 +75,11 @@ def scenario_hash(scenario: Any) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 
+MAX_SEED = 2**31 - 1
+"""The largest seed, in a sweep as in a mission (`POST /api/missions` takes 0..2^31-1), so any
+run of a sweep can be repeated as a live mission."""
+
+
 def parse_seeds(text: str) -> tuple[int, ...]:
     """`0-99`, `7`, `1,5,9` or `0-9,20-29` → sorted unique seeds."""
     seeds: set[int] = set()
@@ -92,6 +97,8 @@ def parse_seeds(text: str) -> tuple[int, ...]:
             ) from None
         if lo < 0 or hi < 0:
             raise SpecError(f"--seeds {text!r}: seeds must be non-negative")
+        if hi > MAX_SEED:
+            raise SpecError(f"--seeds {text!r}: seeds go up to {MAX_SEED} (2^31 - 1)")
         if hi < lo:
             raise SpecError(f"--seeds {text!r}: range {part} is empty (start > end)")
         if hi - lo >= MAX_RUNS:

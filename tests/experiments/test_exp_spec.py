@@ -25,7 +25,10 @@ def test_seeds(text: str, seeds: tuple[int, ...]) -> None:
     assert parse_seeds(text) == seeds
 
 
-@pytest.mark.parametrize("text", ["5-2", "", "a", "1,,2", "-3", "1-x", "0-99999999"])
+@pytest.mark.parametrize(
+    "text",
+    ["5-2", "", "a", "1,,2", "-3", "1-x", "0-99999999", "2147483648", "2147483647-2147483650"],
+)
 def test_bad_seeds(text: str) -> None:
     with pytest.raises(SpecError) as err:
         parse_seeds(text)

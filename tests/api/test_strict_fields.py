@@ -1,0 +1,70 @@
+"""Request fields are strict: `false` is not policy 0 (the central baseline), `true` is not
+speed 1, `"5"` is not seed 5; sweep seeds end where mission seeds do (2^31 - 1)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import httpx
+import pytest
+
+from tests.api.conftest import LiveServer
+
+
+def _refused(api: httpx.Client, method: str, path: str, body: dict[str, Any], field: str) -> None:
+    res = api.request(method, path, json=body)
+    assert res.status_code == 422, res.text
+    assert f"body.{field}" in res.json()["message"], res.json()["message"]
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"policy": False}, "policy"),
+        ({"policy": True}, "policy"),
+        ({"policy": 1.0}, "policy"),
+        ({"speed": True}, "speed"),
+        ({"speed": "5"}, "speed"),
+        ({"seed": True}, "seed"),
+        ({"seed": "5"}, "seed"),
+        ({"seed": 2**31}, "seed"),
+        ({"paused": "yes"}, "paused"),
+        ({"paused": 1}, "paused"),
+    ],
+)
+def test_mission_fields_take_no_lookalikes(
+    api: httpx.Client, body: dict[str, Any], field: str
+) -> None:
+    _refused(api, "POST", "/api/missions", {"planner": "straight", **body}, field)
+    assert api.get("/api/missions").json()["total"] == 0
+
+
+def test_commands_are_strict_too(server: LiveServer, api: httpx.Client) -> None:
+    mid = api.post("/api/missions", json={"paused": True, "planner": "straight"}).json()["id"]
+    _refused(api, "PUT", f"/api/missions/{mid}/speed", {"speed": True}, "speed")
+    _refused(api, "PUT", f"/api/missions/{mid}/policy", {"policy": False}, "policy")
+    _refused(api, "POST", f"/api/missions/{mid}/tasks", {"location": [True, 5]}, "location")
+    mission = api.get(f"/api/missions/{mid}").json()
+    assert mission["policy"] == "fcfs" and mission["speed"] == 1.0 and not mission["actions"]
+    # the real thing still works: whole numbers are numbers, names and numbers are policies
+    assert api.put(f"/api/missions/{mid}/speed", json={"speed": 3}).json()["speed"] == 3.0
+    assert api.put(f"/api/missions/{mid}/policy", json={"policy": 3}).json()["policy"] == "nearest"
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        ({"policies": [False]}, "policies.0"),
+        ({"scale": True}, "scale"),
+        ({"seeds": [True, 2]}, "seeds"),
+        ({"seeds": {"from": True, "to": 3}}, "seeds"),
+        ({"seeds": "2147483647-2147483650"}, "seeds"),  # text seeds were not bounded at all
+        ({"seeds": "99999999999"}, "seeds"),
+        ({"seeds": [2**31]}, "seeds"),
+    ],
+)
+def test_sweep_fields_are_strict_and_seeds_bounded(
+    api: httpx.Client, body: dict[str, Any], field: str
+) -> None:
+    _refused(api, "POST", "/api/sweeps", body, field)
+    assert api.get("/api/sweeps").json()["total"] == 0
