@@ -157,6 +157,9 @@ class AuctionHouse:
         search_path: tuple[Location, ...] = (),
         reauction_of: str | None = None,
     ) -> AuctionRecord:
+        for running in self.open_auctions.values():
+            if running.task_id == task_id:
+                return running  # one auction per task and auctioneer (adoption meets resumption)
         rec = self.ctx.new_auction(
             self.owner, kind, task_type, location, task_id, search_path, reauction_of
         )
@@ -300,11 +303,55 @@ class AuctionHouse:
         for rec in self.open_auctions.values():
             self._announce(rec)
 
-    def stop(self) -> None:
-        """The owner failed: its auctions stop where they are (peers adopt them)."""
+    def stop(self) -> Duties:
+        """The owner failed: its auctions stop where they are. What it was responsible for is
+        returned, for the owner to resume if it comes back and no peer took it over."""
         for live in self._live.values():
             if live.process is not None and live.process.is_alive:
                 live.process.interrupt("auctioneer down")
+        duties = Duties(list(self.open_auctions.values()), dict(self.allocations))
         self._live.clear()
         self.open_auctions.clear()
         self.allocations.clear()
+        return duties
+
+    def resume(self, duties: Duties) -> None:
+        """Take up an earlier life's duties: its auctions again (as re-auctions), its watches."""
+        for rec in duties.auctions:
+            if rec.task_id not in self.allocations:
+                self.open(
+                    rec.task_type,
+                    rec.location,
+                    rec.task_id,
+                    kind=rec.kind,
+                    search_path=rec.search_path,
+                    reauction_of=rec.id,
+                )
+        for tid, alloc in duties.watches.items():
+            if tid not in self.allocations and not any(
+                r.task_id == tid for r in self.open_auctions.values()
+            ):
+                alloc.since = float(self.ctx.env.now)
+                self.allocations[tid] = alloc
+
+
+@dataclass
+class Duties:
+    """An auctioneer's responsibilities: its open auctions and the tasks it watches."""
+
+    auctions: list[AuctionRecord] = field(default_factory=list)
+    watches: dict[str, Allocation] = field(default_factory=dict)
+
+    def __bool__(self) -> bool:
+        return bool(self.auctions or self.watches)
+
+    def without(self, task_ids: set[str]) -> Duties:
+        return Duties(
+            [r for r in self.auctions if r.task_id not in task_ids],
+            {t: a for t, a in self.watches.items() if t not in task_ids},
+        )
+
+    def merge(self, other: Duties) -> Duties:
+        known = {r.task_id for r in self.auctions}
+        extra = [r for r in other.auctions if r.task_id not in known]
+        return Duties(self.auctions + extra, {**other.watches, **self.watches})

@@ -153,10 +153,12 @@ class Revoke(Message):
 
 
 class Takeover(Message):
-    """A robot adopts a silent peer's auctions, monitored tasks and (scouts) its unscanned cells."""
+    """A robot adopts a silent peer's auctions, monitored tasks and (scouts) its unscanned cells.
+    Said again when that peer comes back, so it takes up only what nobody took over."""
 
     failed: Name
     cells: tuple[int, ...] = ()
+    tasks: tuple[str, ...] = ()
 
 
 class Leaving(Message):

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
-from engine.auction import Allocation, AuctionHouse
+from engine.auction import Allocation, AuctionHouse, Duties
 from engine.geometry import Point, path_length, point_along, remaining_path
 from engine.messages import (
     Ack,
@@ -90,6 +90,17 @@ class Robot(Bidder, Recovery):
         self._wake_pending = False
         self._life_proc: Any = None
         self._probing: set[str] = set()
+        # Memory that survives a failure: what others were responsible for (for adoption),
+        # whose duties I took over, tasks I finished, and my own duties while I am down.
+        self.peer_open: dict[str, dict[str, OpenAuction]] = {}
+        self.peer_alloc: dict[str, dict[str, Allocation]] = {}
+        self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
+        self.adopted_tasks: dict[str, tuple[str, ...]] = {}  # failed peer -> its tasks I hold
+        self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
+        self.done_ids: deque[str] = deque(maxlen=DONE_MEMORY)
+        self.dormant = Duties()
+        self.rejoining = False
+        self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
         self._reset_knowledge()
         ctx.liveness.add(name)
         ctx.bus.subscribe(name, self.on_message)
@@ -104,10 +115,6 @@ class Robot(Bidder, Recovery):
         self.pending_awards: list[PendingAward] = []
         self.down: set[str] = set()
         self.down_at: dict[str, float] = {}
-        self.peer_open: dict[str, dict[str, OpenAuction]] = {}
-        self.peer_alloc: dict[str, dict[str, Allocation]] = {}
-        self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
-        self.done_ids: deque[str] = deque(maxlen=DONE_MEMORY)
 
     # --- lifecycle ----------------------------------------------------------------------
     def start(self, joined_late: bool = False) -> None:
@@ -352,6 +359,7 @@ class Robot(Bidder, Recovery):
 
     def _on_hello(self, msg: Hello) -> None:
         self.house.reannounce_open()
+        self.return_duties(msg.sender)
         self.on_hello_heard(msg)
 
     def on_hello_heard(self, msg: Hello) -> None:
@@ -377,7 +385,8 @@ class Robot(Bidder, Recovery):
 
     def finish(self, a: Assignment, outcome: Literal["done", "void", "released"] = "done") -> None:
         self.current = None
-        self.done_ids.append(a.task_id)
+        if outcome != "released":  # a released task is not done: its watcher offers it again
+            self.done_ids.append(a.task_id)
         self.ctx.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
         self.ctx.bus.publish(
             TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)
@@ -399,7 +408,7 @@ class Robot(Bidder, Recovery):
             if p.is_alive and p is not me:
                 p.interrupt("failed")
         self._procs.clear()
-        self.house.stop()
+        self.dormant = self.dormant.merge(self.house.stop())
         self.drop_loads()
         self.current = None
         self.queue.clear()
@@ -413,15 +422,16 @@ class Robot(Bidder, Recovery):
         self.wake()
 
     def go_quiet(self) -> None:
-        """The end of a graceful disable: announce it, then stop like a failure."""
+        """The end of a graceful disable: announce it, then stop like a failure. Its open
+        auctions stay open for the peer that adopts them (cancelling would lose their tasks)."""
         self.ctx.bus.publish(Leaving(sender=self.name, progress=self.progress()))
-        for aid in list(self.house.open_auctions):
-            self.house.cancel(aid)
         self.fail()
         self.state = "disabled"
         self.ctx.emit("robot_quiet", robot=self.name)
 
     def enable(self) -> None:
+        """Back from a failure (a new life): a full peer at once for bidding and working; its
+        earlier duties are settled after a listening period (`Recovery.rejoin`)."""
         self.alive = True
         self.enabled = True
         self.leaving = False
@@ -430,7 +440,10 @@ class Robot(Bidder, Recovery):
         self.queue.clear()
         self._reset_knowledge()
         self.house = AuctionHouse(self.name, self.ctx, self._on_allocated)
+        self.rejoining = True
+        self.taken_back = set()
         self.start(joined_late=True)
+        self._spawn(self.rejoin())
 
 
 def _until_interrupted(gen: Any) -> Any:

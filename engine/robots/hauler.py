@@ -107,13 +107,19 @@ class Hauler(Robot):
             self._loaded.succeed()
 
     def search_along(self, route: tuple[Point, ...]) -> Any:
-        """Follow a failed hauler's route until its fallen mineral comes into sight."""
+        """Follow a failed robot's route until a fallen mineral comes into sight: the first one
+        along the route. If another hauler took it before I got there, search on."""
         self.state = "travelling"
         for i in range(len(route) - 1):
             a, b = route[i], route[i + 1]
-            for g in self.ctx.ground:
-                if segment_point_distance(a, b, (g.x, g.y)) <= SENSE:
-                    yield from self.go_to((g.x, g.y))
+            seen = sorted(
+                (dist(a, (g.x, g.y)), g.id, (g.x, g.y))
+                for g in self.ctx.ground
+                if segment_point_distance(a, b, (g.x, g.y)) <= SENSE
+            )
+            for _, _, spot in seen:
+                yield from self.go_to(spot)
+                if self.ctx.ground_near(self.pos, SENSE) is not None:
                     return
             yield from self.go_to(b)
 

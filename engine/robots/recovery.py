@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections import deque
 from typing import TYPE_CHECKING, Any
 
-from engine.auction import AUCTION_KINDS, Allocation
+from engine.auction import AUCTION_KINDS, Allocation, Duties
 from engine.messages import Heartbeat, Holding, Leaving, Probe, Revoke, Takeover
 from engine.planning import PlanningError
 
@@ -40,7 +40,12 @@ class Recovery:
         peer_open: dict[str, dict[str, OpenAuction]]
         peer_alloc: dict[str, dict[str, Allocation]]
         adopted: dict[str, list[str]]
+        adopted_tasks: dict[str, tuple[str, ...]]
+        adopted_cells: dict[str, tuple[int, ...]]
         done_ids: deque[str]
+        dormant: Duties
+        rejoining: bool
+        taken_back: set[str]
         _in_order: list[OpenAuction] | None
         _life_proc: Any
         _probing: set[str]
@@ -54,6 +59,7 @@ class Recovery:
         def forget_auction(self, auction_id: str) -> OpenAuction | None: ...
         def peer_alive(self, name: str) -> bool: ...
         def _spawn(self, gen: Any) -> None: ...
+        def wake(self) -> None: ...
 
     # --- liveness, monitoring, adoption ---------------------------------------------------
     def heartbeat(self) -> None:
@@ -171,6 +177,7 @@ class Recovery:
 
     def adopt(self, peer: str) -> None:
         opened: list[str] = []
+        tasks: list[str] = []
         kind = AUCTION_KINDS.get(self.rtype, "operator")
         for info in self.peer_open.pop(peer, {}).values():
             rec = self.house.open(
@@ -182,15 +189,28 @@ class Recovery:
                 reauction_of=info.auction_id,
             )
             opened.append(rec.id)
+            tasks.append(info.task_id)
         for tid, alloc in self.peer_alloc.pop(peer, {}).items():
+            tasks.append(tid)
             if alloc.winner in self.down:
                 self.reauction(alloc, None)
             else:
                 self.house.allocations[tid] = alloc
         self.adopted[peer] = opened
-        cells = self.adopt_extra(peer)
+        self.adopted_tasks[peer] = tuple(tasks)
+        self.adopted_cells[peer] = tuple(self.adopt_extra(peer))
         self.ctx.emit("takeover", by=self.name, robot=peer, auctions=opened)
-        self.ctx.bus.publish(Takeover(sender=self.name, failed=peer, cells=tuple(cells)))
+        self._publish_takeover(peer)
+
+    def _publish_takeover(self, peer: str) -> None:
+        self.ctx.bus.publish(
+            Takeover(
+                sender=self.name,
+                failed=peer,
+                cells=self.adopted_cells.get(peer, ()),
+                tasks=self.adopted_tasks.get(peer, ()),
+            )
+        )
 
     def adopt_extra(self, peer: str) -> list[int]:
         """Hook: scouts take over the peer's unscanned cells."""
@@ -218,6 +238,38 @@ class Recovery:
             search_path=search,
             reauction_of=alloc.auction_id,
         )
+
+    # --- coming back from a failure -------------------------------------------------------
+    def rejoin(self) -> Any:
+        """Settle the duties I held before I failed. Every peer that took some over says so
+        again when it hears my Hello (`return_duties`); after listening for 1.5 heartbeat
+        periods I take up the rest. No task is left with nobody; one whose Takeover was lost
+        is held twice for a while, which the protocol resolves (an auctioneer runs one auction
+        per task, duplicates between auctioneers go to the smaller name, Holding/Revoke)."""
+        yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
+        kept = self.dormant.without(self.taken_back)
+        self.dormant = Duties()
+        self.rejoining = False
+        self.house.resume(kept)
+        self.ctx.emit(
+            "duties_settled",
+            robot=self.name,
+            resumed=len(kept.auctions) + len(kept.watches),
+            handed_over=len(self.taken_back),
+        )
+        self.on_rejoined()
+
+    def return_duties(self, peer: str) -> None:
+        """A peer whose duties I adopted is back: tell it what I hold of them, and keep it."""
+        if peer in self.adopted and self.participating:
+            self._publish_takeover(peer)
+            self._forget_adoption(peer)
+
+    def on_cells_taken(self, cells: tuple[int, ...]) -> None:
+        """Hook: scouts drop the cells a peer scans for them now."""
+
+    def on_rejoined(self) -> None:
+        """Hook: my earlier duties are settled."""
 
     def _on_holding(self, msg: Holding) -> None:
         """A robot I re-auctioned a task from is alive and still on it: it keeps the task."""
@@ -252,7 +304,17 @@ class Recovery:
         if msg.target == self.name and self.participating:
             self.heartbeat()
 
+    def _forget_adoption(self, peer: str) -> None:
+        self.adopted.pop(peer, None)
+        self.adopted_tasks.pop(peer, None)
+        self.adopted_cells.pop(peer, None)
+
     def _on_takeover(self, msg: Takeover) -> None:
+        if msg.failed == self.name:
+            if self.rejoining:  # a peer holds these of my earlier duties now
+                self.taken_back.update(msg.tasks)
+                self.on_cells_taken(msg.cells)
+            return
         mine = self.adopted.get(msg.failed)
         if mine is not None and msg.sender < self.name:
             for aid in mine:
@@ -260,7 +322,7 @@ class Recovery:
             for tid, alloc in list(self.house.allocations.items()):
                 if alloc.auction_id in mine:
                     del self.house.allocations[tid]
-            del self.adopted[msg.failed]
+            self._forget_adoption(msg.failed)
             self.on_adoption_undone(msg.failed)
         self.peer_open.pop(msg.failed, None)
         self.peer_alloc.pop(msg.failed, None)

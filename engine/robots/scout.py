@@ -40,7 +40,6 @@ class Scout(Robot):
         self.route: list[int] = routes.setdefault(name, [])
         self.cursor = 0
         self.known_tasks: set[str] = set()
-        self._rejoining = False
         self._given: dict[str, tuple[str, list[int], float]] = {}  # handoff id → (to, cells, t)
         self._received: list[str] = []
         self._handoffs = 0
@@ -51,13 +50,9 @@ class Scout(Robot):
 
     def life(self) -> Any:
         grid = self.ctx.world.grid
-        if self._rejoining:
-            self._rejoining = False
+        while self.rejoining:  # until my earlier duties are settled (`Recovery.rejoin`)
             self.state = "idle"
-            yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
-            if self._was_adopted():
-                del self.route[self.cursor :]
-                self.ctx.bus.publish(Hello(sender=self.name, rtype=self.rtype, wants_work=True))
+            yield self.wait_for_wake()
         while True:
             if self.leaving:
                 self.go_quiet()
@@ -132,8 +127,9 @@ class Scout(Robot):
         return cells
 
     def on_takeover_heard(self, msg: Takeover) -> None:
-        if msg.cells:
-            self.routes.setdefault(msg.sender, []).extend(msg.cells)
+        theirs = self.routes.setdefault(msg.sender, [])
+        known = set(theirs)
+        theirs.extend(c for c in msg.cells if c not in known)  # said again on a return
 
     def on_adoption_undone(self, failed: str) -> None:
         theirs = self.routes.get(failed, [])
@@ -141,10 +137,6 @@ class Scout(Robot):
         cells = set(theirs[hb.progress if hb is not None else 0 :])
         keep = self.route[: self.cursor] + [c for c in self.route[self.cursor :] if c not in cells]
         self.route[:] = keep
-
-    def enable(self) -> None:
-        self._rejoining = True
-        super().enable()
 
     # --- sharing the search with a scout that has none -------------------------------------
     def heartbeat(self) -> None:
@@ -167,9 +159,10 @@ class Scout(Robot):
 
     def _maybe_share(self, to: str) -> None:
         """The scout with the longest remaining route (as far as I know) gives the newcomer
-        the far half of it; everyone else stays put."""
+        the far half of it; everyone else stays put (and a scout still settling its earlier
+        duties does not give any away)."""
         mine = self.remaining()
-        if mine < 2 * SHARE_MIN:
+        if mine < 2 * SHARE_MIN or self.rejoining:
             return
         # rank everyone, me included, by what the last heartbeats said: the same data for all
         # scouts, so they agree on the donor
@@ -217,11 +210,12 @@ class Scout(Robot):
                 self.ctx.emit("handoff_taken_back", by=self.name, to=to, handoff_id=hid)
                 self.wake()
 
-    def _was_adopted(self) -> bool:
-        """After a heartbeat period back: did a live peer take over my unscanned cells?"""
-        board = self.ctx.liveness
-        for name in self.ctx.robot_type_names("scout"):
-            hb = board.last_heartbeat(self.name, name)
-            if name != self.name and hb is not None and self.name in hb.adopted:
-                return True
-        return False
+    def on_cells_taken(self, cells: tuple[int, ...]) -> None:
+        """A peer scans these of my remaining cells now (it adopted them while I was down)."""
+        taken = set(cells)
+        self.route[self.cursor :] = [c for c in self.route[self.cursor :] if c not in taken]
+
+    def on_rejoined(self) -> None:
+        if self.wants_work():
+            self.ctx.bus.publish(Hello(sender=self.name, rtype=self.rtype, wants_work=True))
+        self.wake()
