@@ -6,8 +6,10 @@ from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
+from starlette.exceptions import HTTPException
 
 from app.services.errors import Invalid, ServiceError
 from engine import CommandRejected, ScenarioError, UnknownRobotError
@@ -47,8 +49,28 @@ async def _engine(_: Request, exc: Exception) -> JSONResponse:
     return JSONResponse({"detail": str(exc)}, status_code=code)
 
 
+_UNREADABLE: dict[type[BaseException], str] = {
+    UnicodeError: "not valid UTF-8 JSON",
+    RecursionError: "JSON nested too deeply",
+}
+
+
+async def _http(request: Request, exc: Exception) -> Response:
+    """FastAPI answers a JSON body it cannot even decode (invalid UTF-8, nesting past the
+    parser's depth) with a bare 400 that no route declares; it is bad input like any
+    malformed JSON, so it gets the same documented 422 naming `body`."""
+    assert isinstance(exc, HTTPException)
+    cause = exc.__cause__
+    if exc.status_code == 400 and cause is not None:
+        for kind, text in _UNREADABLE.items():
+            if isinstance(cause, kind):
+                return _invalid(("body",), text)
+    return await http_exception_handler(request, exc)
+
+
 def install(app: FastAPI) -> None:
     app.add_exception_handler(RequestValidationError, _validation)
+    app.add_exception_handler(HTTPException, _http)
     app.add_exception_handler(ServiceError, _service)
     for exc in (UnknownRobotError, CommandRejected, ScenarioError):
         app.add_exception_handler(exc, _engine)

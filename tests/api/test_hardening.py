@@ -44,6 +44,33 @@ def test_live_mission_limit_is_429(strict: LiveServer) -> None:
         assert r.status_code == 429 and "already live" in r.json()["detail"]
 
 
+@pytest.mark.parametrize(
+    ("body", "says"),
+    [
+        (b'{"seed": "\xff\xfe"}', "not valid UTF-8 JSON"),
+        (b"[" * 5000, "JSON nested too deeply"),  # past the parser's depth: RecursionError
+        (b'{"a":' * 3000, "JSON nested too deeply"),
+    ],
+)
+def test_undecodable_json_bodies_are_a_documented_422(
+    server: LiveServer, body: bytes, says: str
+) -> None:
+    """These were a bare 400 (FastAPI's "error parsing the body"), in no route's schema."""
+    headers = {"content-type": "application/json"}
+    with server.client() as api:
+        paths = api.get("/openapi.json").json()["paths"]
+        for method, path, route in [
+            ("POST", "/api/missions", "/api/missions"),
+            ("PUT", "/api/missions/1/speed", "/api/missions/{mission_id}/speed"),
+            ("POST", "/api/sweeps", "/api/sweeps"),
+        ]:
+            r = api.request(method, path, content=body, headers=headers)
+            assert r.status_code == 422, (path, r.text)
+            assert r.json()["message"] == f"body: {says}"
+            assert "422" in paths[route][method.lower()]["responses"]
+        assert api.get("/api/missions").json()["total"] == 0
+
+
 def test_oversize_body_is_413(server: LiveServer) -> None:
     with server.client() as api:
         r = api.post("/api/missions", content=b"{" + b" " * 2_000_000 + b"}")
