@@ -93,8 +93,14 @@ class Hauler(Robot):
         self._loaded = None
 
     def can_receive(self, exc: Excavator) -> bool:
-        """Alive, standing by the excavator, with an empty bin: a mineral can move over."""
-        return self.alive and self.bin == 0 and dist(self.pos, exc.pos) <= NEAR
+        """Alive, still waiting to be loaded beside the excavator, with an empty bin: a mineral
+        can move over (a hauler that failed and came back mid-transfer is not waiting)."""
+        return (
+            self.alive
+            and self.bin == 0
+            and self._loaded is not None
+            and dist(self.pos, exc.pos) <= NEAR
+        )
 
     def receive(self, exc: Excavator, task_id: str) -> None:
         """The excavator empties its bucket into my bin; a coalition hand-over is my task now."""
