@@ -16,7 +16,7 @@ import numpy as np
 import simpy
 
 from engine.auction import AuctionRecord
-from engine.events import EventLog
+from engine.events import Event, EventLog
 from engine.geometry import Point, dist
 from engine.liveness import Liveness
 from engine.messages import Location, Message, TaskType
@@ -31,6 +31,12 @@ if TYPE_CHECKING:
 
 NEAR = 0.5
 """Two points this close are the same place (a robot at a site, a mineral at a spot)."""
+
+PROGRESS = frozenset(
+    {"site_found", "dug", "pickup", "delivered", "mineral_recovered", "auction_closed"}
+)
+"""Events that move the mission forward; a long time with none of them (and no new cell
+scanned, no operator action) is a stall."""
 
 
 @dataclass(slots=True)
@@ -70,6 +76,8 @@ class MissionContext:
         self.env = env
         self.policy = policy
         self.log = EventLog(lambda: float(env.now))
+        self.progress_at = 0.0
+        self.log.subscribe(self._note_progress)
         self.bus: EmbeddedBus  # set by the mission once the bus exists
         self.liveness = Liveness()
         self.robots: dict[str, Robot] = {}
@@ -100,6 +108,10 @@ class MissionContext:
             self._site_cells.setdefault(key, []).append(site)
 
     # --- observer -------------------------------------------------------------------------
+    def _note_progress(self, ev: Event) -> None:
+        if ev.kind in PROGRESS:
+            self.progress_at = ev.t
+
     def record_message(self, msg: Message) -> None:
         data = msg.to_dict()
         self.log.emit("message", **data)
@@ -211,6 +223,7 @@ class MissionContext:
         if not self.scanned[cell]:
             self.scanned[cell] = 1
             self.scanned_count += 1
+            self.progress_at = float(self.env.now)
 
     def scanned_b64(self) -> str:
         bits = np.packbits(np.frombuffer(bytes(self.scanned), dtype=np.uint8), bitorder="little")

@@ -83,6 +83,8 @@ class Mission(MissionViews):
         ctx.liveness.introduce_all(0.0)
         for r in robots:
             r.start()
+        self._stalled = self.env.event()
+        self.env.process(self._watch_for_stall())
         self.actions: list[dict[str, Any]] = []
         self.status = "running"
         self._closed = False
@@ -144,10 +146,14 @@ class Mission(MissionViews):
         t0 = time.perf_counter()
         env, finished = self.env, self.ctx.finished
         limit = min(float(until), self.scenario.max_time_s)
-        while not finished.triggered and env.peek() <= limit:
+        stalled = self._stalled
+        while not finished.triggered and not stalled.triggered and env.peek() <= limit:
             env.step()
         if finished.triggered:
             self._end("completed")
+        elif stalled.triggered:
+            self.ctx.emit("mission_stalled", **self.stall_report())
+            self._end("stalled")
         elif limit >= self.scenario.max_time_s:
             if limit > env.now:
                 env.run(until=limit)
@@ -155,6 +161,16 @@ class Mission(MissionViews):
         elif limit > env.now:
             env.run(until=limit)
         self._wall += time.perf_counter() - t0
+
+    def _watch_for_stall(self) -> Any:
+        """End the mission `stalled` once nothing has moved it forward for stall_timeout_s."""
+        timeout = self.scenario.stall_timeout_s
+        while True:
+            due = self.ctx.progress_at + timeout
+            if self.env.now >= due:
+                self._stalled.succeed()
+                return
+            yield self.env.timeout(due - self.env.now)
 
     def run(self) -> dict[str, Any]:
         self.advance(math.inf)
@@ -189,6 +205,7 @@ class Mission(MissionViews):
     # --- operator commands --------------------------------------------------------------
     def _record(self, kind: str, **args: Any) -> None:
         self.actions.append({"t": self.now, "kind": kind, "args": args})
+        self.ctx.progress_at = self.now  # an operator steering is not a stall
 
     def _check_running(self) -> None:
         """Settle the current instant, then refuse if the mission has ended.

@@ -128,6 +128,9 @@ class Scenario(_Model):
     protocol: Protocol = Protocol()
     bus: BusConfig = BusConfig()
     max_time_s: Annotated[Period, Field(le=1e7)] = 200_000.0
+    # a mission with no progress (scan, find, dig, pickup, delivery, allocation, operator
+    # action) for this long cannot finish as it stands: it ends `stalled`, saying what is stuck
+    stall_timeout_s: Annotated[Period, Field(le=1e7)] = 3600.0
     start_spread: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 3.0
 
     @property

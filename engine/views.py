@@ -79,6 +79,38 @@ class MissionViews:
             "messages": ctx.bus.published,
         }
 
+    def stall_report(self) -> dict[str, Any]:
+        """What is stuck: the open auctions, and what every robot is doing or waiting for."""
+        ctx = self.ctx
+        auctions = [
+            {
+                "auction_id": a.id,
+                "task_id": a.task_id,
+                "auctioneer": a.auctioneer,
+                "rounds": a.round,
+                "declines": sum(1 for w in a.awards if w.outcome != "accepted"),
+            }
+            for a in ctx.auctions
+            if a.status == "open"
+        ]
+        robots = [
+            {
+                "name": r.name,
+                "state": r.state,
+                "task": None if r.current is None else r.current.task_id,
+                "queued": len(r.queue),
+                "waiting_for": getattr(r, "waiting_for", None),
+            }
+            for r in self._robots()
+        ]
+        return {
+            "stalled_for_s": self.now - ctx.progress_at,
+            "open_auctions": auctions,
+            "robots": robots,
+            "minerals": ctx.minerals_in(),
+            "sites_unfound": len(ctx.sites) - ctx.sites_found,
+        }
+
     def frame(self) -> dict[str, Any]:
         return {
             "t": self.now,

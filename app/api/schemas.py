@@ -19,7 +19,7 @@ Name = Annotated[str, Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.
 RobotType = Literal["scout", "excavator", "hauler"]
 TaskType = Literal["excavate", "transport"]
 MissionStatus = Literal[
-    "running", "paused", "completed", "timeout", "stopped", "interrupted", "failed"
+    "running", "paused", "completed", "timeout", "stalled", "stopped", "interrupted", "failed"
 ]
 
 
