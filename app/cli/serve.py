@@ -111,6 +111,8 @@ def serve(
         access_log=False,  # regolith.access logs every request, with its ids and duration
         ws_max_size=max(65536, settings.ws_max_message),
         timeout_graceful_shutdown=5,
+        # X-Forwarded-For is Regolith's to judge (REGOLITH_TRUSTED_PROXIES), not uvicorn's
+        proxy_headers=False,
     )
 
 

@@ -8,7 +8,6 @@ then answer. Streaming follows from the engine's own events and `status` message
 from __future__ import annotations
 
 import asyncio
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -19,8 +18,9 @@ from app.live import Hub, Viewer, encode
 from app.runner import LiveMission, MissionRunner
 from app.services import queries
 from app.services.admission import Admission
-from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
+from app.services.errors import Conflict, LimitExceeded, NotFound
 from app.services.replay import revive
+from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
 from app.services.store import Store
 from app.settings import Settings
@@ -125,7 +125,7 @@ class MissionService:
         planner: str,
     ) -> tuple[MissionRow, LiveState]:
         scenario = scenario or reference_scenario()
-        self._check_size(scenario)
+        check_size(self.settings, scenario)
         refusal = (
             f"{self.settings.max_running_missions} missions are already live; "
             "stop one or raise REGOLITH_MAX_RUNNING_MISSIONS"
@@ -161,27 +161,6 @@ class MissionService:
             lm = self.runner.add(row.id, mission, speed=rate, paused=paused)
             lm.row = row
             return row, live_state(lm, metrics=True)
-
-    def _check_size(self, scenario: Scenario) -> None:
-        """Service limits on top of the engine's own validation (a scenario the engine would
-        accept can still be too big to stream and store comfortably)."""
-        team = scenario.team
-        robots = team.scouts + team.excavators + team.haulers
-        if robots > self.settings.max_robots:
-            raise Invalid(
-                f"team: {robots} robots exceed this server's limit of "
-                f"{self.settings.max_robots} (REGOLITH_MAX_ROBOTS)",
-                ("body", "scenario", "team"),
-            )
-        cell = scenario.scan_radius * math.sqrt(2)
-        cells = math.ceil(scenario.width / cell) * math.ceil(scenario.height / cell)
-        if cells > self.settings.max_grid_cells:
-            raise Invalid(
-                f"width: a {scenario.width:g}×{scenario.height:g} area scanned at radius "
-                f"{scenario.scan_radius:g} has {cells} search cells, over this server's limit "
-                f"of {self.settings.max_grid_cells} (REGOLITH_MAX_GRID_CELLS)",
-                ("body", "scenario", "width"),
-            )
 
     def _build(
         self, scenario: Scenario, seed: int, policy: str, planner: str

@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, Query, status
 
 from app.api.convert import mission_detail, mission_read
-from app.api.deps import MissionId, MissionsDep, Operator, ServicesDep, Viewer
+from app.api.deps import MissionId, MissionsDep, Operator, Viewer
 from app.api.schemas import (
     ActionRead,
     MissionCreate,
@@ -19,18 +19,13 @@ from app.api.schemas import (
     PolicyUpdate,
     SpeedUpdate,
 )
-from app.services.scenario_limits import check_size
 
 router = APIRouter(prefix="/missions", tags=["missions"])
 
 
 @router.post("", status_code=status.HTTP_201_CREATED, dependencies=[Operator])
-async def create_mission(
-    body: MissionCreate, missions: MissionsDep, services: ServicesDep
-) -> MissionDetail:
+async def create_mission(body: MissionCreate, missions: MissionsDep) -> MissionDetail:
     """Start a live mission (paused if `paused` or `speed` is 0)."""
-    if body.scenario is not None:
-        check_size(services.settings, body.scenario)  # the same limits as a sweep's runs
     row, live = await missions.create(
         policy=body.policy,
         seed=body.seed,
