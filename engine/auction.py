@@ -345,6 +345,9 @@ class Duties:
     def __bool__(self) -> bool:
         return bool(self.auctions or self.watches)
 
+    def task_ids(self) -> set[str]:
+        return {r.task_id for r in self.auctions} | set(self.watches)
+
     def without(self, task_ids: set[str]) -> Duties:
         return Duties(
             [r for r in self.auctions if r.task_id not in task_ids],

@@ -98,6 +98,7 @@ class Robot(Bidder, Recovery):
         self.adopted_tasks: dict[str, tuple[str, ...]] = {}  # failed peer -> its tasks I hold
         self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
         self.done_ids: deque[str] = deque(maxlen=DONE_MEMORY)
+        self.completed: set[str] = set()  # tasks I finished for good
         self.dormant = Duties()
         self.rejoining = False
         self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
@@ -252,7 +253,16 @@ class Robot(Bidder, Recovery):
             handler(self, msg)
 
     def _on_announce(self, msg: Announce) -> None:
-        if self.current is not None and self.current.task_id == msg.task_id:
+        if msg.task_id in self.completed:
+            # offered again from an old record (a watcher back from a failure that missed my
+            # TaskDone): it is done, say so again and the auctioneer withdraws it
+            self.ctx.bus.publish(
+                TaskDone(
+                    sender=self.name, auction_id=msg.auction_id, task_id=msg.task_id, outcome="done"
+                )
+            )
+            return
+        if any(a.task_id == msg.task_id for a in self.tasks_held()):
             self.ctx.bus.publish(
                 Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
             )
@@ -352,6 +362,10 @@ class Robot(Bidder, Recovery):
         alloc = self.house.allocations.pop(msg.task_id, None)
         if alloc is not None and msg.outcome == "released":
             self.reauction(alloc, None)
+        elif msg.outcome == "done":
+            for rec in list(self.house.open_auctions.values()):
+                if rec.task_id == msg.task_id:
+                    self.house.cancel(rec.id)
         self.on_task_done_heard(msg)
 
     def on_task_done_heard(self, msg: TaskDone) -> None:
@@ -372,6 +386,10 @@ class Robot(Bidder, Recovery):
         return ()
 
     # --- tasks --------------------------------------------------------------------------
+    def tasks_held(self) -> list[Assignment]:
+        """The task I work on and those queued behind it."""
+        return ([] if self.current is None else [self.current]) + list(self.queue)
+
     def assign(self, a: Assignment) -> None:
         self.queue.append(a)
         self.ctx.emit(
@@ -387,6 +405,8 @@ class Robot(Bidder, Recovery):
         self.current = None
         if outcome != "released":  # a released task is not done: its watcher offers it again
             self.done_ids.append(a.task_id)
+        if outcome == "done" or (outcome == "void" and a.task_type == "transport"):
+            self.completed.add(a.task_id)  # final: no one need ever carry this again
         self.ctx.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
         self.ctx.bus.publish(
             TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)

@@ -312,11 +312,33 @@ class Excavator(Robot):
             )
 
     def _transport_known_at(self, p: Point) -> bool:
-        mine = [(r.task_type, r.location) for r in self.house.open_auctions.values()]
-        mine += [(a.task_type, a.location) for a in self.house.allocations.values()]
-        theirs = [(a.task_type, a.location) for d in self.peer_open.values() for a in d.values()]
-        theirs += [(a.task_type, a.location) for d in self.peer_alloc.values() for a in d.values()]
-        return any(t == "transport" and dist(loc, p) <= NEAR for t, loc in mine + theirs)
+        """Is a transport for a mineral lying here already offered or under way? My own pile's
+        transports do not count (they are for what I dig), nor is old news about peers
+        believed: their auctions must be fresh, their winners must still list the task."""
+        pile = {*self.ahead, self.waiting_for}
+        board = self.ctx.liveness
+        known = [
+            (r.task_type, r.location)
+            for r in self.house.open_auctions.values()
+            if r.task_id not in pile
+        ]
+        known += [
+            (a.task_type, a.location)
+            for a in self.house.allocations.values()
+            if a.task_id not in pile
+        ]
+        for allocs in self.peer_alloc.values():
+            for a in allocs.values():
+                hb = board.last_heartbeat(self.name, a.winner)
+                if hb is not None and a.task_id in hb.tasks:
+                    known.append((a.task_type, a.location))
+        known += [
+            (a.task_type, a.location)
+            for peer in self.peer_open
+            for a in self.peer_open[peer].values()
+            if self.peer_handles(a.task_id)
+        ]
+        return any(t == "transport" and dist(loc, p) <= NEAR for t, loc in known)
 
     def on_close_heard(self, msg: Close) -> None:
         pass

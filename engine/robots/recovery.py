@@ -217,7 +217,10 @@ class Recovery:
         return []
 
     def reauction(self, alloc: Allocation, hb: Heartbeat | None) -> None:
-        """Offer a task again whose holder failed, released it or dropped it."""
+        """Offer a task again whose holder failed, released it or dropped it (unless a live
+        peer already offers or watches it: two watchers back from failures, say)."""
+        if self.peer_handles(alloc.task_id):
+            return
         kind = AUCTION_KINDS.get(self.rtype, "operator")
         location, search = alloc.location, alloc.search_path
         if hb is not None and hb.load > 0 and hb.tasks[:1] == (alloc.task_id,):
@@ -247,7 +250,8 @@ class Recovery:
         is held twice for a while, which the protocol resolves (an auctioneer runs one auction
         per task, duplicates between auctioneers go to the smaller name, Holding/Revoke)."""
         yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
-        kept = self.dormant.without(self.taken_back)
+        mine = self.dormant.without(self.taken_back)
+        kept = mine.without({t for t in mine.task_ids() if self.peer_handles(t)})
         self.dormant = Duties()
         self.rejoining = False
         self.house.resume(kept)
@@ -270,6 +274,20 @@ class Recovery:
 
     def on_rejoined(self) -> None:
         """Hook: my earlier duties are settled."""
+
+    def peer_handles(self, task_id: str) -> bool:
+        """Does a live peer of my type run an auction for this task? Only what is fresh counts:
+        announced since its last heartbeat, or listed in it (my memory of peers may be old)."""
+        board = self.ctx.liveness
+        for peer, auctions in self.peer_open.items():
+            if not self.peer_alive(peer):
+                continue
+            hb = board.last_heartbeat(self.name, peer)
+            for aid, a in auctions.items():
+                fresh = hb is None or hb.t <= a.opened_at or aid in hb.open_auctions
+                if a.task_id == task_id and fresh:
+                    return True
+        return False
 
     def _on_holding(self, msg: Holding) -> None:
         """A robot I re-auctioned a task from is alive and still on it: it keeps the task."""

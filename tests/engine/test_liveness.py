@@ -1,0 +1,141 @@
+"""Liveness under combined faults: a team restored to full strength always finishes, and a
+mission that cannot finish says so instead of running to max_time_s."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from app.experiments.chaos import chaos_mission
+from engine import Mission, reference_scenario, run_mission
+from engine.policies import POLICIES
+from tests.engine.factories import events_of, small_scenario
+from tests.engine.invariants import InvariantWatch
+
+# The reduced reproduction of a live session where 4 of 6 missions never finished: idle
+# excavators, sites found, and an excavation auction stranded with a scout that failed and
+# came back before anyone noticed (it had forgotten the auction; nobody had adopted it).
+STUCK_BEFORE = [
+    (264.3, "disable_robot", {"name": "scout-2", "mode": "graceful"}),
+    (604.8, "disable_robot", {"name": "excavator-2", "mode": "abrupt"}),
+    (690.6, "disable_robot", {"name": "excavator-4", "mode": "abrupt"}),
+    (800.1, "enable_robot", {"name": "excavator-2"}),
+    (1009.4, "enable_robot", {"name": "scout-2"}),
+    (2118.0, "disable_robot", {"name": "excavator-2", "mode": "abrupt"}),
+    (2793.5, "disable_robot", {"name": "scout-2", "mode": "abrupt"}),
+    (2798.5, "enable_robot", {"name": "excavator-4"}),
+    (2798.6, "enable_robot", {"name": "excavator-2"}),
+    (2798.6, "enable_robot", {"name": "scout-2"}),
+]
+
+
+def test_the_reported_stuck_mission_completes() -> None:
+    m = Mission(reference_scenario(), 102, "nearest")
+    watch = InvariantWatch(m)
+    for t, kind, args in STUCK_BEFORE:
+        m.apply({"t": t, "kind": kind, "args": args})
+    m.run()
+    watch.final()
+    assert m.status == "completed"
+    assert m.ctx.delivered == 64
+
+
+def test_a_scout_back_before_anyone_noticed_resumes_its_auctions() -> None:
+    """The class behind the reproduction: the duties a robot held when it failed are taken
+    up again by whoever holds them now (here the robot itself; nobody had adopted them)."""
+    m = Mission(reference_scenario(), 102, "nearest")
+    for t, kind, args in STUCK_BEFORE:
+        m.apply({"t": t, "kind": kind, "args": args})
+    m.advance(2830.0)
+    settled = [e for e in events_of(m, "duties_settled") if e["robot"] == "scout-2"]
+    assert settled[-1]["resumed"] >= 1 and settled[-1]["handed_over"] == 0
+    stranded = [a for a in m.auctions if a.status == "open" and a.auctioneer == "scout-2"]
+    assert all(a.id in m.ctx.robots["scout-2"].house.open_auctions for a in stranded)
+
+
+# --- randomized operator actions over every policy -------------------------------------------
+# The generator draws each action from the robots' states at its time (app/experiments/chaos.py):
+# disable graceful/abrupt, enable, add, inject, switch policy, 15% of them at the same instant
+# as the one before; then every robot is enabled. bench/chaos_bench.py runs the larger sample.
+SEEDS = range(40)
+CASES = [(seed, policy) for seed in SEEDS for policy in sorted(POLICIES)]
+
+# Once every robot is back, finishing may take at most twice the whole fault-free mission:
+# what is left is at most the whole mission (1x), the final policy may be a slower one than
+# the baseline's (the spread between policies is under 1.3x, docs/experiments.md), and the
+# restoration itself (listening 15 s, probes, re-auctions) costs a few minutes at most. A
+# mission that limps (a share of the search or a pile held by nobody until some timeout)
+# breaks it. Measured over 1,000 missions: docs/faults.md.
+AFTER_RESTORE_BOUND = 2.0
+
+
+@pytest.mark.parametrize(("seed", "policy"), CASES)
+def test_random_operator_actions_then_full_restore_finish(seed: int, policy: str) -> None:
+    scenario = reference_scenario()
+    watches: list[InvariantWatch] = []
+    run = chaos_mission(
+        scenario,
+        seed,
+        policy,
+        actions=14,
+        window_s=2500.0,
+        planner="straight",
+        watch=lambda m: watches.append(InvariantWatch(m)),
+    )
+    watches[0].final()
+    assert run.finished, (run.status, run.delivered, run.actions)
+    assert run.makespan_s is not None
+    baseline = run_mission(scenario, seed, policy, planner="straight")["makespan_s"]
+    assert run.makespan_s - run.restored_at <= AFTER_RESTORE_BOUND * baseline, run.actions
+
+
+def test_a_randomized_history_replays_to_the_same_run() -> None:
+    """The recorded actions are the mission's whole input: replaying them gives the same log."""
+    run = chaos_mission(reference_scenario(), 7, "lookahead", actions=14, window_s=2500.0)
+    m = Mission(reference_scenario(), 7, "lookahead")
+    for action in run.actions:
+        m.apply(action)
+    m.run()
+    assert (m.status, m.ctx.delivered, m.ctx.finished_at) == (
+        run.status,
+        run.delivered,
+        run.makespan_s,
+    )
+
+
+# --- a mission that cannot progress -------------------------------------------------------
+def _no_excavators(**overrides: Any) -> Mission:
+    scenario = small_scenario(stall_timeout_s=900.0, **overrides)
+    m = Mission(scenario, 3, "fcfs")
+    m.apply({"t": 5.0, "kind": "disable_robot", "args": {"name": "excavator-1", "mode": "abrupt"}})
+    m.apply({"t": 5.0, "kind": "disable_robot", "args": {"name": "excavator-2"}})
+    return m
+
+
+def test_a_mission_that_cannot_finish_ends_stalled_and_says_what_is_stuck() -> None:
+    m = _no_excavators()
+    m.run()
+    assert m.status == "stalled"
+    (report,) = events_of(m, "mission_stalled")
+    assert report["stalled_for_s"] >= 900.0
+    assert m.now <= m.ctx.progress_at + 900.0 + 1e-6  # ended when the clock ran out, not later
+    states = {r["name"]: r["state"] for r in report["robots"]}
+    assert states["excavator-1"] == "failed" and states["excavator-2"] == "disabled"
+    assert report["open_auctions"], "the sites' excavation auctions are what is stuck"
+    assert all(a["task_id"].startswith("excavate@") for a in report["open_auctions"])
+    assert report["minerals"]["sites"] == m.ctx.minerals_total
+    assert events_of(m, "mission_ended")[-1]["status"] == "stalled"
+    # an idle team's heartbeats for an hour are not worth 300,000 rows
+    assert len(m.events) < 20_000
+
+
+def test_an_operator_action_resets_the_stall_clock() -> None:
+    m = _no_excavators()
+    m.advance(800.0)
+    m.apply({"t": 800.0, "kind": "set_policy", "args": {"policy": "nearest"}})
+    m.advance(1500.0)
+    assert not m.done  # 900 s have passed since the last progress, but not since the action
+    m.apply({"t": 1500.0, "kind": "enable_robot", "args": {"name": "excavator-1"}})
+    m.run()
+    assert m.status == "completed"
