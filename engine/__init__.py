@@ -6,7 +6,16 @@ See docs/engine-api.md. Nothing here imports the web or database layers.
 from engine.errors import CommandRejected, EngineError, UnknownRobotError
 from engine.events import Event
 from engine.mission import Mission, run_mission
-from engine.policies import POLICIES, POLICY_NAMES, Policy, register_policy, resolve_policy
+from engine.policies import (
+    POLICIES,
+    POLICY_NAMES,
+    Policy,
+    PolicyMeta,
+    policy_help,
+    policy_table,
+    register_policy,
+    resolve_policy,
+)
 from engine.scenario import (
     Scenario,
     ScenarioError,
@@ -23,11 +32,14 @@ __all__ = [
     "Event",
     "Mission",
     "Policy",
+    "PolicyMeta",
     "Scenario",
     "ScenarioError",
     "UnknownRobotError",
     "load_scenario",
     "parse_scenario",
+    "policy_help",
+    "policy_table",
     "reference_scenario",
     "register_policy",
     "resolve_policy",

@@ -3,8 +3,9 @@
 A policy answers four questions, each a pure function of what the robot itself knows:
 which open auctions to bid in now, whether to gather simultaneous awards before answering,
 whether excavator–hauler coalitions are active, and when an excavator auctions the transport
-of its next mineral. A new policy is a subclass registered in `POLICIES`; nothing in the
-protocol changes.
+of its next mineral. A new policy is one subclass with its metadata (number, name, label,
+colour, description, decentralized) passed to `register_policy`; the CLI, the API, the
+dashboard and the tests all read the registry (`policy_table`), so nothing else changes.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypedDict
 
 from engine.messages import Location, TaskType
 
@@ -44,9 +45,14 @@ class PendingAward:
 
 
 class Policy:
+    """The interface, and the metadata every registered policy states about itself."""
+
+    number = -1
     name = "base"
-    number = 0
-    description = ""
+    label = ""  # short human name for charts and menus ("Coalitions")
+    colour = "#a3b1c2"  # one hex colour per policy, used by every chart and menu
+    description = ""  # one line
+    decentralized = True  # False: some unit with global knowledge decides (the baseline)
 
     def bid_targets(
         self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
@@ -96,16 +102,74 @@ class Policy:
         return None
 
 
+POLICIES: dict[str, type[Policy]] = {}
+"""The registry: name → class, in registration order (which every menu and report follows)."""
+POLICY_NAMES: dict[int, str] = {}
+_HEX = re.compile(r"^#[0-9a-f]{6}$")
+
+
+def register_policy(cls: type[Policy]) -> type[Policy]:
+    """Plug a policy in (a class decorator): the one place the CLI, the API, the dashboard and
+    the tests learn of it. Refuses metadata they could not show, or a number another policy has,
+    because `resolve_policy` and every menu key on them."""
+    if not cls.name or cls.name != cls.name.lower() or not cls.label or not cls.description:
+        raise ValueError(
+            f"{cls.__name__}: a policy needs a lower-case name, a label and a description"
+        )
+    if cls.number < 0 or not _HEX.match(cls.colour):
+        raise ValueError(f"{cls.__name__}: number must be >= 0 and colour '#rrggbb' (lower case)")
+    taken = POLICY_NAMES.get(cls.number)
+    if taken is not None and taken != cls.name:
+        raise ValueError(f"{cls.__name__}: number {cls.number} is already {taken!r}")
+    POLICIES[cls.name] = cls
+    POLICY_NAMES[cls.number] = cls.name
+    return cls
+
+
+class PolicyMeta(TypedDict):
+    """One registered policy as plain data (JSON-ready)."""
+
+    number: int
+    name: str
+    label: str
+    colour: str
+    description: str
+    decentralized: bool
+
+
+def policy_table() -> list[PolicyMeta]:
+    """Every registered policy's metadata in registration order: what the CLI help, the API
+    (`GET /api/policies`), the dashboard and the tests list, so none keeps its own copy."""
+    return [
+        PolicyMeta(
+            number=p.number,
+            name=p.name,
+            label=p.label,
+            colour=p.colour,
+            description=p.description,
+            decentralized=p.decentralized,
+        )
+        for p in POLICIES.values()
+    ]
+
+
+def policy_help() -> str:
+    """The registered policies as one line of CLI help: `1|fcfs (FCFS), …, 0|central (Central)`."""
+    return ", ".join(f"{p['number']}|{p['name']} ({p['label']})" for p in policy_table())
+
+
 def earliest(auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
     """The auction that opened first (the list comes in opening order)."""
     return [auctions[0]] if auctions else []
 
 
+@register_policy
 class FirstComeFirstServed(Policy):
     """Policy 1: bid only in the auction that opened first, until it closes."""
 
-    name, number = "fcfs", 1
-    description = "first come, first served"
+    number, name = 1, "fcfs"
+    label, colour = "FCFS", "#56b4e9"
+    description = "bid only in the auction that opened first"
 
     def bid_targets(
         self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
@@ -128,11 +192,13 @@ def coalition_partner(name: str) -> str | None:
     return None
 
 
+@register_policy
 class AnticipatoryCoalitions(FirstComeFirstServed):
     """Policy 2: paired haulers follow their excavator and never bid; others bid as Policy 1."""
 
-    name, number = "coalition", 2
-    description = "anticipatory coalitions"
+    number, name = 2, "coalition"
+    label, colour = "Coalitions", "#e69f00"
+    description = "excavator-k and hauler-k work as a pair; the rest bid as Policy 1"
 
     def bid_targets(
         self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
@@ -145,11 +211,13 @@ class AnticipatoryCoalitions(FirstComeFirstServed):
         return True
 
 
+@register_policy
 class NearestFirst(Policy):
     """Policy 3: bid in every open auction; of several awards keep the nearest, decline the rest."""
 
-    name, number = "nearest", 3
-    description = "nearest first"
+    number, name = 3, "nearest"
+    label, colour = "Nearest", "#009e73"
+    description = "bid in every auction; of several awards keep the nearest"
 
     def bid_targets(
         self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
@@ -160,6 +228,7 @@ class NearestFirst(Policy):
         return True
 
 
+@register_policy
 class Lookahead(Policy):
     """Policy 4: act on what is about to happen (rules, reasons, measurements: docs/policies.md).
 
@@ -173,8 +242,9 @@ class Lookahead(Policy):
     The class attributes switch the rules off one at a time, for the measurements.
     """
 
-    name, number = "lookahead", 4
-    description = "lookahead: early transport auctions, arrival-time bids, one-task queues"
+    number, name = 4, "lookahead"
+    label, colour = "Lookahead", "#0072b2"
+    description = "early transport auctions, arrival-time bids, one-task queues"
     lead = True
     queue: dict[str, int] = {"hauler": 1, "excavator": 1}  # noqa: RUF012 - read-only table
     time_bids = True
@@ -201,13 +271,16 @@ class Lookahead(Policy):
         return self.time_bids
 
 
+@register_policy
 class Central(Policy):
     """The centralized baseline (number 0): an oracle with global knowledge picks every
     auction's winner by an optimal assignment (engine/central.py). Robots bid in every open
     auction, so the records look like the others'; the bids do not decide anything."""
 
-    name, number = "central", 0
-    description = "centralized oracle baseline (optimal assignment, global knowledge)"
+    number, name = 0, "central"
+    label, colour = "Central", "#bbbbbb"
+    description = "centralized oracle baseline: optimal assignment from global knowledge"
+    decentralized = False
     lead = True  # Policy 4's early transport auctions, so only the allocation differs
 
     def bid_targets(
@@ -225,20 +298,6 @@ class Central(Policy):
         from engine.central import OracleAllocator
 
         return OracleAllocator()
-
-
-POLICIES: dict[str, type[Policy]] = {
-    p.name: p
-    for p in (FirstComeFirstServed, AnticipatoryCoalitions, NearestFirst, Lookahead, Central)
-}
-POLICY_NAMES: dict[int, str] = {p.number: p.name for p in POLICIES.values()}
-
-
-def register_policy(cls: type[Policy]) -> type[Policy]:
-    """Plug a new policy in (usable as a class decorator)."""
-    POLICIES[cls.name] = cls
-    POLICY_NAMES[cls.number] = cls.name
-    return cls
 
 
 def resolve_policy(value: str | int) -> str:

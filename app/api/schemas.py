@@ -228,3 +228,14 @@ class Health(BaseModel):
     version: str
     missions_live: int
     viewers: int
+
+
+class PolicyRead(BaseModel):
+    """One registered policy (`engine.policy_table`): what clients show it as."""
+
+    number: int = Field(description="accepted wherever a policy is, like the name")
+    name: str
+    label: str = Field(description="short human name for menus and charts")
+    colour: str = Field(pattern=r"^#[0-9a-f]{6}$", description="its colour in every chart")
+    description: str
+    decentralized: bool = Field(description="false for the centralized oracle baseline")

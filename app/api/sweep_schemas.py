@@ -67,11 +67,17 @@ Seeds = Annotated[
 ]
 
 
+DEFAULT_POLICIES = (1, 2, 3)
+"""The research's three policies: what a sweep compares unless told otherwise."""
+
+
 class SweepCreate(_In):
     """Every policy on every seed of one scenario (the reference by default), K× scaled."""
 
     policies: Annotated[list[PolicyName], Field(min_length=1, max_length=16)] = Field(
-        default_factory=lambda: [1, 2, 3], description="numbers or names, e.g. [1, 2, 3]"
+        default_factory=lambda: list(DEFAULT_POLICIES),
+        description="numbers or names, e.g. [1, 2, 3]",
+        json_schema_extra={"default": list(DEFAULT_POLICIES)},  # the dashboard pre-checks these
     )
     seeds: Seeds = "0-9"
     scale: Annotated[int, Field(strict=True, ge=1, le=16)] = 1

@@ -14,6 +14,7 @@ from engine import (
     EngineError,
     ScenarioError,
     load_scenario,
+    policy_help,
     reference_scenario,
     resolve_policy,
     run_mission,
@@ -105,9 +106,7 @@ def _finite(v: Any) -> Any:
 
 
 def run(
-    policy: Annotated[
-        str, typer.Option(help="1|fcfs, 2|coalition, 3|nearest, 4|lookahead, 0|central (oracle)")
-    ],
+    policy: Annotated[str, typer.Option(help=f"Policy number or name: {policy_help()}")],
     seed: Annotated[int, typer.Option(min=0, help="Seed of the world and every random draw")],
     scenario: Annotated[
         Path | None, typer.Option(help="Scenario file (.toml or .json); default: reference")

@@ -9,6 +9,8 @@ from typing import Annotated, Any, NoReturn
 
 import typer
 
+from engine import policy_help
+
 USAGE_EXIT = 2
 
 
@@ -20,7 +22,10 @@ def _fail(message: str, code: int = USAGE_EXIT) -> NoReturn:
 def sweep(
     out: Annotated[Path, typer.Option("--out", help="Directory for the journal and results.")],
     policies: Annotated[
-        str, typer.Option("--policies", help="Policy numbers or names, e.g. 1,2,3.")
+        str,
+        typer.Option(
+            "--policies", help=f"Policy numbers or names, e.g. 1,2,3; registered: {policy_help()}."
+        ),
     ] = "1,2,3",
     seeds: Annotated[str, typer.Option("--seeds", help="Seeds, e.g. 0-99 or 1,5,9.")] = "0-9",
     scenario: Annotated[

@@ -3,13 +3,11 @@
 import { $, h, fmt } from "./dom.js";
 import { get, qs } from "./api.js";
 import { barChart, stripChart } from "./charts.js";
-import { KIND_LABEL, POLICY_COLOUR } from "./palette.js";
+import { KIND_LABEL } from "./palette.js";
 import { missionMetrics, shortId } from "./missions.js";
-import { ORDER, SweepPanel, policyLabel } from "./sweeps.js";
+import { policyColour as colour, policyLabel, policyRank as rank, policyShort } from "./policies.js";
+import { SweepPanel } from "./sweeps.js";
 
-const SHORT = { fcfs: "FCFS", coalition: "Coalitions", nearest: "Nearest", lookahead: "Lookahead", central: "Central" };
-const EXTRA_COLOUR = { lookahead: "#cc79a7", central: "#f0e442" }; // Okabe–Ito, after the three research policies
-const colour = (p) => POLICY_COLOUR[p] || EXTRA_COLOUR[p] || "#a3b1c2";
 const TYPES = ["scout", "excavator", "hauler"];
 const KINDS = ["scout_excavator", "excavator_hauler"];
 
@@ -129,7 +127,6 @@ export class ComparePage {
 
   draw() {
     const runs = this.runs();
-    const rank = (p) => (ORDER.includes(p) ? ORDER.indexOf(p) : ORDER.length);
     const present = [...new Set(runs.map((r) => r.policy))].filter(Boolean).sort((a, b) => rank(a) - rank(b) || a.localeCompare(b));
     const by = Object.fromEntries(present.map((p) => [p, runs.filter((r) => r.policy === p)]));
     const source = this.sweep ? `sweep ${this.sweepId} · ` : "";
@@ -137,7 +134,7 @@ export class ComparePage {
     const empty = this.sweep ? "no finished runs in this sweep yet" : "pick finished missions";
     stripChart(
       $("#cmp-makespan"),
-      present.map((p) => ({ label: SHORT[p] || p, colour: colour(p), values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
+      present.map((p) => ({ label: policyShort(p), colour: colour(p), values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
       { emptyText: empty },
     );
     const bars = (getter) =>

@@ -2,7 +2,7 @@
 
 import { $, $$, fmt, toast } from "./dom.js";
 import { isOperator, post, put } from "./api.js";
-import { POLICY_LABEL } from "./palette.js";
+import { policyLabel } from "./policies.js";
 
 export function bindControls(view) {
   const path = (suffix = "") => `/missions/${encodeURIComponent(view.id)}${suffix}`;
@@ -27,7 +27,7 @@ export function bindControls(view) {
     const res = await run("Policy", () => put(path("/policy"), { policy }));
     if (res) {
       view._status({ policy: res.policy || policy });
-      toast(`Policy switched to ${POLICY_LABEL[policy] || policy}`);
+      toast(`Policy switched to ${policyLabel(policy)}`);
     } else {
       policySel.value = view.state.policy;
     }

@@ -6,6 +6,7 @@ import { MissionsPage } from "./missions.js";
 import { LiveView } from "./live.js";
 import { ComparePage } from "./compare.js";
 import { SITE_COLOUR, glyph } from "./palette.js";
+import { loadPolicies } from "./policies.js";
 
 const missions = new MissionsPage();
 const live = new LiveView();
@@ -113,5 +114,6 @@ function legend() {
 }
 
 legend();
+await loadPolicies(); // every policy menu and label is built from it before a page draws
 window.addEventListener("hashchange", route);
 route();

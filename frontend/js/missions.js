@@ -2,7 +2,7 @@
 
 import { $, h, fmt, toast } from "./dom.js";
 import { get, isOperator, post, qs } from "./api.js";
-import { POLICY_LABEL } from "./palette.js";
+import { policyLabel } from "./policies.js";
 import { ENDED } from "./status.js";
 import { parseToml } from "./toml.js";
 
@@ -80,7 +80,7 @@ export class MissionsPage {
         { dataset: { mission: m.id, status: m.status, policy: m.policy } },
         h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
         h("td", {}, h("span", { class: "badge", dataset: { status: m.status } }, m.status)),
-        h("td", {}, POLICY_LABEL[m.policy] || m.policy),
+        h("td", {}, policyLabel(m.policy)),
         h("td", { class: "num" }, m.seed),
         h("td", {}, m.scenario_name || m.scenario?.name || (typeof m.scenario === "string" ? m.scenario : "reference")),
         h("td", { class: "num", dataset: { cell: "makespan" } }, makespanText(metrics)),

@@ -1,24 +1,11 @@
-// Robot colours (Okabe–Ito, colour-blind safe) and one distinct shape per robot type.
+// Robot colours (Okabe–Ito, colour-blind safe) and one distinct shape per robot type. Policy
+// colours and labels are not here: they come with the policies from /api/policies (policies.js).
 
 export const TYPE_COLOUR = {
   scout: "#56b4e9", // sky blue
   excavator: "#e69f00", // orange
   hauler: "#cc79a7", // reddish purple
   other: "#ffffff",
-};
-export const POLICY_COLOUR = {
-  fcfs: "#56b4e9",
-  coalition: "#e69f00",
-  nearest: "#009e73",
-  lookahead: "#0072b2",
-  central: "#bbbbbb",
-};
-export const POLICY_LABEL = {
-  fcfs: "1 · FCFS",
-  coalition: "2 · Coalitions",
-  nearest: "3 · Nearest",
-  lookahead: "4 · Lookahead",
-  central: "0 · Central",
 };
 export const KIND_COLOUR = { scout_excavator: "#e69f00", excavator_hauler: "#cc79a7", operator: "#56b4e9" };
 export const KIND_LABEL = { scout_excavator: "scout→exc", excavator_hauler: "exc→hauler", operator: "operator" };

@@ -8,7 +8,7 @@
 
 import { $, $$, clock, toast } from "./dom.js";
 import { get, isOperator, post } from "./api.js";
-import { POLICY_LABEL } from "./palette.js";
+import { policyLabel } from "./policies.js";
 
 /** A mission in one of these has ended for good: shown from its record, never resumed. */
 export const ENDED = new Set(["completed", "timeout", "stopped", "stalled", "failed", "cancelled"]);
@@ -67,7 +67,7 @@ export class MissionStatus {
     st.dataset.status = s.status;
     const pol = $("#live-policy");
     pol.dataset.policy = s.policy;
-    pol.title = `Current policy: ${POLICY_LABEL[s.policy] || s.policy}`;
+    pol.title = `Current policy: ${policyLabel(s.policy)}`;
     const sel = $("#policy-select");
     if (document.activeElement !== sel && s.policy) sel.value = s.policy;
     const paused = s.status === "paused" || String(s.speed) === "0";

@@ -3,24 +3,10 @@
 
 import { $, h, clock, toast } from "./dom.js";
 import { get, getToken, isOperator, onTokenChange, post } from "./api.js";
-import { POLICY_LABEL } from "./palette.js";
+import { policies, policyLabel } from "./policies.js";
 
 const ACTIVE = new Set(["running", "cancelling"]);
 const RESUMABLE = new Set(["interrupted", "cancelled", "failed"]);
-const RESEARCH = ["fcfs", "coalition", "nearest"]; // checked by default
-export const ORDER = [...RESEARCH, "lookahead", "central"];
-export const EXTRA_LABEL = { lookahead: "4 · Lookahead", central: "Central (baseline)" };
-export const policyLabel = (p) => POLICY_LABEL[p] || EXTRA_LABEL[p] || p;
-
-/** String values a JSON-schema node accepts (follows $ref, enum, const, anyOf/oneOf/allOf). */
-function enumStrings(node, spec, out = new Set(), depth = 0) {
-  if (!node || typeof node !== "object" || depth > 8) return out;
-  if (node.$ref) return enumStrings(spec.components?.schemas?.[node.$ref.split("/").pop()], spec, out, depth + 1);
-  for (const v of node.enum || []) if (typeof v === "string") out.add(v);
-  if (typeof node.const === "string") out.add(node.const);
-  for (const k of ["anyOf", "oneOf", "allOf"]) for (const n of node[k] || []) enumStrings(n, spec, out, depth + 1);
-  return out;
-}
 
 /** An image the API serves, as a data: URL (fetched with the token, which an <img> cannot send). */
 async function loadImage(img, url) {
@@ -78,18 +64,21 @@ export class SweepPanel {
     await this.refresh();
   }
 
+  /** One checkbox per registered policy; those of the server's default sweep checked. */
   drawPolicies(spec) {
-    const prop = spec.components?.schemas?.SweepCreate?.properties?.policies;
-    const names = [...enumStrings(prop?.items ?? prop, spec)];
-    if (!names.length) names.push(...RESEARCH);
-    const rank = (p) => (ORDER.includes(p) ? ORDER.indexOf(p) : ORDER.length);
-    names.sort((a, b) => rank(a) - rank(b) || a.localeCompare(b));
+    const defaults = spec.components?.schemas?.SweepCreate?.properties?.policies?.default ?? [];
+    const checked = (p) => defaults.includes(p.number) || defaults.includes(p.name);
     $("#sweep-policies").replaceChildren(
-      ...names.map((p) =>
-        h("label", { class: "check" }, h("input", { type: "checkbox", name: "policy", value: p, checked: RESEARCH.includes(p), "data-control": true }), policyLabel(p)),
+      ...policies().map((p) =>
+        h(
+          "label",
+          { class: "check", title: p.description },
+          h("input", { type: "checkbox", name: "policy", value: p.name, checked: checked(p), "data-control": true }),
+          policyLabel(p.name),
+        ),
       ),
     );
-    this.policiesDrawn = true;
+    this.policiesDrawn = policies().length > 0;
     this.applyControl();
   }
 

@@ -3,11 +3,12 @@
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine import Mission
+from engine import POLICIES, Mission
 from tests.engine.factories import small_scenario
 from tests.engine.invariants import InvariantWatch
 
-POLICIES = st.sampled_from(["fcfs", "coalition", "nearest"])
+# every registered policy, so a new one is held to the same invariants from its first run
+ANY_POLICY = st.sampled_from(list(POLICIES))
 
 
 @st.composite
@@ -27,7 +28,7 @@ def scenarios(draw):
     )
 
 
-@given(seed=st.integers(0, 10_000), scenario=scenarios(), policy=POLICIES)
+@given(seed=st.integers(0, 10_000), scenario=scenarios(), policy=ANY_POLICY)
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_invariants_hold_at_every_event(seed, scenario, policy):
     m = Mission(scenario, seed, policy)
@@ -57,7 +58,7 @@ def failure_plans(draw):
     return team, plan
 
 
-@given(seed=st.integers(0, 10_000), policy=POLICIES, plan=failure_plans())
+@given(seed=st.integers(0, 10_000), policy=ANY_POLICY, plan=failure_plans())
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_missions_survive_abrupt_failures(seed, policy, plan):
     team, failures = plan
@@ -77,7 +78,7 @@ def test_missions_survive_abrupt_failures(seed, policy, plan):
 
 @given(
     seed=st.integers(0, 10_000),
-    policy=POLICIES,
+    policy=ANY_POLICY,
     loss=st.sampled_from([0.1, 0.3]),
     latency=st.sampled_from([0.0, 0.5]),
 )
