@@ -115,10 +115,14 @@ class Excavator(Robot):
             self._auction_ahead(site)
             yield self.env.timeout(dig_s - later)
 
+    def _transport_id(self, kind: str) -> str:
+        """A task id never used before: `t` transports auctioned ahead, `r` one offered again for a full bucket."""
+        self._transport_serial += 1
+        return f"{self.name}#{kind}{self._transport_serial}"
+
     def _auction_ahead(self, site: SiteState | Point) -> None:
         where = site if isinstance(site, tuple) else (site.x, site.y)
-        self._transport_serial += 1
-        task_id = f"{self.name}#t{self._transport_serial}"
+        task_id = self._transport_id("t")
         self.ahead.append(task_id)
         self.house.open("transport", where, task_id, kind="excavator_hauler")
 
@@ -152,10 +156,14 @@ class Excavator(Robot):
         while self.bucket:
             if not self.ahead:
                 self._auction_ahead(site)  # more in the pile than expected: one more now
-            for task_id in self.ahead:
+            for i, task_id in enumerate(self.ahead):
                 if task_id not in self.house.allocations and not self._transport_open(task_id):
-                    # its winner dropped it (void, or lost): offer it again
-                    self.house.open("transport", (site.x, site.y), task_id, kind="excavator_hauler")
+                    # it ended without this pile's mineral (void, lost, or its hauler carried
+                    # another): a new transport, under a new id (the old one is over for good)
+                    self.ahead[i] = self._transport_id("t")
+                    self.house.open(
+                        "transport", (site.x, site.y), self.ahead[i], kind="excavator_hauler"
+                    )
             ready = [t for t in self.ahead if t in self.early and self.early[t].standing_by(self)]
             if ready:
                 task_id = ready[0]
@@ -186,6 +194,7 @@ class Excavator(Robot):
         """
         task_id = f"{self.name}#m{self.minerals_dug}"
         self.waiting_for = task_id
+        offered = False
         while self.bucket:
             on_its_way = task_id in self.house.allocations
             partner = self.partner_here
@@ -199,7 +208,10 @@ class Excavator(Robot):
                 yield from self.transfer(partner, site)
                 continue
             if not on_its_way and not self._transport_open(task_id):
+                if offered:  # the last one ended without this mineral: a new one, a new id
+                    task_id = self.waiting_for = self._transport_id("r")
                 self.house.open("transport", (site.x, site.y), task_id, kind="excavator_hauler")
+                offered = True
             self._arrival = arrival = self.env.event()
             self.state = "waiting"
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
