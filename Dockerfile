@@ -14,8 +14,10 @@ WORKDIR /srv/regolith
 # Dependencies first (cached while only the code changes), then the code.
 COPY pyproject.toml README.md ./
 COPY engine ./engine
+COPY experiments ./experiments
 COPY app ./app
-RUN pip install . \
+# The experiments extra (matplotlib, Dask) too: the server starts sweeps.
+RUN pip install '.[experiments]' \
     && useradd --system --uid 10001 --home-dir /srv/regolith regolith \
     && mkdir -p /data && chown regolith /data
 # Found from the working directory at run time: migrations are applied at start.

@@ -8,6 +8,7 @@ PORT    ?= 8000
 
 .PHONY: run test lint format browser bench clean
 
+# `.[dev]` includes the experiments extra (matplotlib, Dask): the server starts sweeps.
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip

@@ -6,7 +6,7 @@
 Every registered policy runs every seed: a fault-free mission, then the same seed under
 `--actions` random operator actions (disable graceful/abrupt, enable, add, inject, switch
 policy; two at one instant now and then) over the first `--window` simulated seconds, then
-every robot enabled (app/experiments/chaos.py). Runs on all cores through a process pool, with
+every robot enabled (experiments/chaos.py). Runs on all cores through a process pool, with
 the real OMPL planner unless `--planner straight`. docs/faults.md records the figures.
 """
 
@@ -22,8 +22,8 @@ import numpy as np
 
 
 def one(args: tuple[int, str, int, float, str]) -> dict[str, Any]:
-    from app.experiments.chaos import chaos_mission
     from engine import reference_scenario, run_mission
+    from experiments.chaos import chaos_mission
 
     seed, policy, actions, window, planner = args
     scenario = reference_scenario()

@@ -7,8 +7,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
-from app.experiments.spec import MAX_SEED
 from engine import POLICIES, POLICY_NAMES, Scenario, resolve_policy
+from experiments.spec import MAX_SEED
 
 # Request fields are strict: JSON `true` is not the number 1 (`"speed": true` ran at 1.0) and
 # `"5"` is not 5. Points stay lists in JSON, so strictness goes on their numbers, not the tuple.

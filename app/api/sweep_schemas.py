@@ -8,9 +8,9 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag, model_validator
 
 from app.api.schemas import PolicyName, Seed
-from app.experiments.spec import SpecError, parse_seeds
 from app.services.errors import Invalid
 from engine import Scenario
+from experiments.spec import SpecError, parse_seeds
 
 MAX_SEEDS = 100_000
 """Seeds a request may name at all (the server's run limit is usually far lower); checked

@@ -45,9 +45,9 @@ def sweep(
 
     Re-running with the same --out continues an interrupted sweep and never repeats a run.
     """
-    from app.experiments.journal import SweepConflict
-    from app.experiments.runner import SweepError, run_sweep
-    from app.experiments.spec import SpecError, make_spec, parse_policies, parse_seeds
+    from experiments.journal import SweepConflict
+    from experiments.runner import SweepError, run_sweep
+    from experiments.spec import SpecError, make_spec, parse_policies, parse_seeds
 
     try:
         from engine import (

@@ -1,6 +1,6 @@
 """What a sweep's folder holds, read for the API: runs so far, summary, figures, manifest.
 
-The journal and the derived files are written by `app/experiments` (in the job's worker
+The journal and the derived files are written by `experiments` (in the job's worker
 processes); these functions only read them, on the thread pool, never on the event loop.
 """
 
@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from app.db.models import Sweep as SweepRow
-from app.experiments.journal import MANIFEST, Journal
 from app.services.errors import Conflict
+from experiments.journal import MANIFEST, Journal
 
 log = logging.getLogger("regolith.sweeps")
 
@@ -33,7 +33,7 @@ def set_aside(out_dir: Path) -> None:
 
 def check_build(out_dir: Path, sweep_id: int) -> None:
     """Refuse a resume that would mix two engine builds, before starting a job for it."""
-    from app.experiments.worker import engine_fingerprint
+    from experiments.worker import engine_fingerprint
 
     try:
         pinned = json.loads((out_dir / MANIFEST).read_text(encoding="utf-8")).get("engine")

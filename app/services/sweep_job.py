@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from app.experiments.spec import SweepSpec
+from experiments.spec import SweepSpec
 
 if TYPE_CHECKING:
-    from app.experiments.runner import Progress
+    from experiments.runner import Progress
 
 
 @dataclass
@@ -84,9 +84,9 @@ def _settle(
 
 def _execute(job: SweepJob, workers: int) -> None:
     """Runs, then the derived files, all in a pool of `workers` processes this job owns."""
-    from app.experiments.bound import engine_bound
-    from app.experiments.outputs import write_outputs
-    from app.experiments.runner import SweepCancelled, local_pool, run_sweep
+    from experiments.bound import engine_bound
+    from experiments.outputs import write_outputs
+    from experiments.runner import SweepCancelled, local_pool, run_sweep
 
     job.pool = pool = local_pool(workers)
     clean = False

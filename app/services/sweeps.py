@@ -27,16 +27,16 @@ from starlette.concurrency import run_in_threadpool
 
 from app.db.models import Sweep as SweepRow
 from app.db.models import utcnow
-from app.experiments.spec import PolicyRef, SpecError, SweepSpec, make_spec, parse_policies
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.store import Store
 from app.services.sweep_files import check_build, figure_links, read_results, set_aside
 from app.services.sweep_job import SweepJob, halt, progress_fields, work
 from app.settings import Settings
 from engine import POLICY_NAMES, Scenario, ScenarioError, reference_scenario, resolve_policy
+from experiments.spec import PolicyRef, SpecError, SweepSpec, make_spec, parse_policies
 
 if TYPE_CHECKING:
-    from app.experiments.runner import Progress
+    from experiments.runner import Progress
 
 log = logging.getLogger("regolith.sweeps")
 
@@ -224,8 +224,8 @@ class SweepManager:
             return "completed", None
         if job.stop.is_set():
             return ("interrupted" if self.stopping and not job.cancelling else "cancelled"), None
-        from app.experiments.journal import SweepConflict
-        from app.experiments.runner import SweepError
+        from experiments.journal import SweepConflict
+        from experiments.runner import SweepError
 
         if not isinstance(outcome, (SweepError, SweepConflict)):
             log.error("sweep %d failed", job.id, exc_info=outcome)

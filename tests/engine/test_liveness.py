@@ -7,9 +7,9 @@ from typing import Any
 
 import pytest
 
-from app.experiments.chaos import chaos_mission
 from engine import Mission, reference_scenario, run_mission
 from engine.policies import POLICIES
+from experiments.chaos import chaos_mission
 from tests.engine.factories import events_of, small_scenario
 from tests.engine.invariants import InvariantWatch
 
@@ -55,7 +55,7 @@ def test_a_scout_back_before_anyone_noticed_resumes_its_auctions() -> None:
 
 
 # --- randomized operator actions over every policy -------------------------------------------
-# The generator draws each action from the robots' states at its time (app/experiments/chaos.py):
+# The generator draws each action from the robots' states at its time (experiments/chaos.py):
 # disable graceful/abrupt, enable, add, inject, switch policy, 15% of them at the same instant
 # as the one before; then every robot is enabled. bench/chaos_bench.py runs the larger sample.
 SEEDS = range(40)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.experiments.spec import SweepSpec
+from experiments.spec import SweepSpec
 from tests.experiments.exp_fakes import fake_spec
 
 

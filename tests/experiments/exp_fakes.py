@@ -9,8 +9,8 @@ import math
 import random
 from typing import Any
 
-from app.experiments.spec import SweepSpec, make_spec, parse_policies, parse_seeds
 from engine import reference_scenario
+from experiments.spec import SweepSpec, make_spec, parse_policies, parse_seeds
 
 POLICIES = {1: "fcfs", 2: "coalition", 3: "nearest"}
 

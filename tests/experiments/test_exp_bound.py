@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import pytest
 
-from app.experiments.bound import BoundWorld, found_bounds, lower_bound, mst_length
+from experiments.bound import BoundWorld, found_bounds, lower_bound, mst_length
 
 BASE = BoundWorld(
     plant=(0.0, 0.0),

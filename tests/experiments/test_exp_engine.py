@@ -10,10 +10,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.experiments.bound import engine_bound
-from app.experiments.runner import run_sweep
-from app.experiments.spec import make_spec, parse_policies, parse_seeds
 from engine import POLICY_NAMES, parse_scenario, reference_scenario, resolve_policy, run_mission
+from experiments.bound import engine_bound
+from experiments.runner import run_sweep
+from experiments.spec import make_spec, parse_policies, parse_seeds
 
 
 def test_dask_cluster_and_local_pool_write_the_same_runs_csv(tmp_path: Path) -> None:

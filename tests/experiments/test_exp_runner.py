@@ -11,10 +11,10 @@ from typing import Any
 
 import pytest
 
-from app.experiments.journal import JOURNAL, SweepConflict
-from app.experiments.runner import Progress, SweepCancelled, SweepError, run_sweep
-from app.experiments.spec import SweepSpec, make_spec
 from engine import reference_scenario
+from experiments.journal import JOURNAL, SweepConflict
+from experiments.runner import Progress, SweepCancelled, SweepError, run_sweep
+from experiments.spec import SweepSpec, make_spec
 from tests.experiments.exp_fakes import failing_run, fake_run, fake_spec
 
 
@@ -150,7 +150,7 @@ def test_another_engine_build_in_the_same_dir_is_refused(spec: SweepSpec, tmp_pa
 def test_a_worker_with_another_engine_build_is_not_journaled(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import app.experiments.runner as runner
+    import experiments.runner as runner
 
     monkeypatch.setattr(runner, "engine_fingerprint", lambda: "pinned-build")
     with pytest.raises(SweepError, match="differs from this sweep's pinned-build"):

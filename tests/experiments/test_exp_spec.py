@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from app.experiments.report import seed_ranges
-from app.experiments.spec import (
+from engine import reference_scenario
+from experiments.report import seed_ranges
+from experiments.spec import (
     PolicyRef,
     SpecError,
     make_spec,
@@ -13,7 +14,6 @@ from app.experiments.spec import (
     parse_seeds,
     scenario_hash,
 )
-from engine import reference_scenario
 from tests.experiments.exp_fakes import POLICIES, resolve
 
 

@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy import stats as sps
 
-from app.experiments.stats import (
+from experiments.stats import (
     cohen_d,
     describe,
     holm,

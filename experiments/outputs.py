@@ -6,13 +6,13 @@ import json
 from pathlib import Path
 from typing import Any
 
-from app.experiments.bound import BoundFn, bound_columns
-from app.experiments.figures import draw, figure_specs
-from app.experiments.journal import write_atomic
-from app.experiments.report import render_report, verdict
-from app.experiments.spec import SweepSpec
-from app.experiments.summary import build_summary, groups_by_policy
-from app.experiments.table import numeric_columns, run_rows, write_csv
+from experiments.bound import BoundFn, bound_columns
+from experiments.figures import draw, figure_specs
+from experiments.journal import write_atomic
+from experiments.report import render_report, verdict
+from experiments.spec import SweepSpec
+from experiments.summary import build_summary, groups_by_policy
+from experiments.table import numeric_columns, run_rows, write_csv
 
 FIG_DIR = "figures"
 

@@ -10,9 +10,9 @@ import math
 from collections import Counter
 from typing import Any
 
-from app.experiments.spec import SweepSpec
-from app.experiments.stats import ALPHA, CONFIDENCE, describe, pairwise
-from app.experiments.table import Scalar, numeric_columns
+from experiments.spec import SweepSpec
+from experiments.stats import ALPHA, CONFIDENCE, describe, pairwise
+from experiments.table import Scalar, numeric_columns
 
 SCHEMA = 1
 

@@ -13,8 +13,8 @@ import json
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from app.experiments.journal import write_atomic
-from app.experiments.spec import SweepSpec
+from experiments.journal import write_atomic
+from experiments.spec import SweepSpec
 
 NONDETERMINISTIC = frozenset({"wall_s"})
 """Metrics that measure the machine, not the mission: kept in the journal, not in runs.csv,

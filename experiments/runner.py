@@ -19,12 +19,12 @@ from multiprocessing.context import BaseContext
 from pathlib import Path
 from typing import Any
 
-from app.experiments.bound import BoundFn, engine_bound
-from app.experiments.journal import Journal, RunKey, check_manifest, exclusive
-from app.experiments.lifeline import die_with
-from app.experiments.outputs import write_outputs
-from app.experiments.spec import SweepSpec, scenario_dict
-from app.experiments.worker import RunFn, engine_fingerprint, execute_run
+from experiments.bound import BoundFn, engine_bound
+from experiments.journal import Journal, RunKey, check_manifest, exclusive
+from experiments.lifeline import die_with
+from experiments.outputs import write_outputs
+from experiments.spec import SweepSpec, scenario_dict
+from experiments.worker import RunFn, engine_fingerprint, execute_run
 
 
 @dataclass(frozen=True)
@@ -87,7 +87,7 @@ def local_pool(workers: int | None = None) -> ProcessPoolExecutor:
     n = workers or os.cpu_count() or 1
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx: BaseContext = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["app.experiments.worker"])  # imports the engine
+        ctx.set_forkserver_preload(["experiments.worker"])  # imports the engine
     else:  # pragma: no cover - Windows
         ctx = multiprocessing.get_context("spawn")
     return ProcessPoolExecutor(

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from app.experiments.figures import FigureSpec
-from app.experiments.spec import SweepSpec
+from experiments.figures import FigureSpec
+from experiments.spec import SweepSpec
 
 
 def fmt_p(p: float | None) -> str:

@@ -16,7 +16,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from app.experiments.stats import describe
+from experiments.stats import describe
 
 mpl.rcParams["svg.hashsalt"] = "regolith"  # stable element ids in SVG output
 

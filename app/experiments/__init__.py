@@ -1,6 +1,0 @@
-"""Experiments: policy × seed sweeps, their statistics, figures and reports.
-
-Import from the submodules (`app.experiments.runner`, `.stats`, …). This package file stays
-empty on purpose: sweep workers import `app.experiments.worker` and must not pay for
-matplotlib or scipy at start-up.
-"""
