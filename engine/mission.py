@@ -187,7 +187,14 @@ class Mission(MissionViews):
             self.ctx.planner.close()
 
     # --- reading ------------------------------------------------------------------------
+    @property
+    def wall_s(self) -> float:
+        """Wall-clock seconds spent building and advancing this mission: the machine's time,
+        not the mission's, so it is kept beside `metrics()` and never in it."""
+        return self._wall
+
     def metrics(self) -> dict[str, Any]:
+        """The run's figures: a pure function of scenario, seed, planner and actions."""
         out: dict[str, Any] = {
             "policy": self.initial_policy,
             "seed": self.seed,
@@ -199,7 +206,6 @@ class Mission(MissionViews):
         }
         out.update(mission_metrics(self.ctx))
         out["policy_changes"] = sum(1 for a in self.actions if a["kind"] == "set_policy")
-        out["wall_s"] = self._wall
         return out
 
     # --- operator commands --------------------------------------------------------------

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import time
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -141,12 +142,15 @@ def run(
         except ScenarioError as exc:
             raise fail_usage(str(exc).replace("bus.", "--").replace("_s:", ":")) from None
     actions = parse_actions(fail, enable, add)
+    t0 = time.perf_counter()
     try:
         metrics = run_mission(scen, seed, policy_name, actions)
     except (EngineError, ScenarioError) as exc:
         # an action the mission refuses (unknown robot, bad time …), or a world the scenario
         # cannot make for this seed (sites that do not fit): the user's input, not a bug
         raise fail_usage(str(exc)) from None
+    # the machine's time, reported beside the mission's figures (never part of them)
+    metrics["wall_s"] = time.perf_counter() - t0
     if json_out:
         typer.echo(json.dumps(_finite(metrics), sort_keys=True))
     else:

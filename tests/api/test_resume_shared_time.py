@@ -91,10 +91,7 @@ def _uninterrupted(seed: int, policy: str, actions: list[Json]) -> tuple[Json, l
 
 
 def _same_run(record: Json, events: list[Json], alone: Json, alone_events: list[Json]) -> None:
-    def strip(metrics: Json) -> Json:
-        return {k: v for k, v in metrics.items() if k != "wall_s"}
-
-    assert strip(record["metrics"]) == strip(alone)
+    assert record["metrics"] == alone
     assert [e["seq"] for e in events] == list(range(len(events)))  # no gap or duplicate
     assert len(events) == len(alone_events)
     for stored, fresh in zip(events, alone_events, strict=True):

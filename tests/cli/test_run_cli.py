@@ -35,7 +35,7 @@ def test_json_is_one_object_with_every_key_and_repeats_but_for_wall_time():
     assert a["policy"] == "coalition" and a["completed"] is True
     assert set(a["distance"]) == {"scout", "excavator", "hauler"}
     assert set(a["auction_open_s"]["scout_excavator"]) == {"count", "mean", "p50", "max"}
-    a.pop("wall_s"), b.pop("wall_s")
+    assert a.pop("wall_s") > 0 and b.pop("wall_s") > 0  # the machine's time, beside the figures
     assert a == b
 
 

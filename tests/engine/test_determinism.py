@@ -15,15 +15,14 @@ def trace_digest(m: Mission) -> str:
     return h.hexdigest()
 
 
-def without_wall(metrics: dict) -> dict:
-    return {k: v for k, v in metrics.items() if k != "wall_s"}
-
-
 def test_same_seed_same_metrics_repeatedly_in_one_process():
-    runs = [without_wall(run_mission(reference_scenario(), 4, p)) for p in (1, 3, 1, 2, 3)]
+    runs = [run_mission(reference_scenario(), 4, p) for p in (1, 3, 1, 2, 3)]
     assert runs[0] == runs[2]
     assert runs[1] == runs[4]
-    assert runs[0] != runs[1] or runs[0]["declines"] == runs[1]["declines"]
+    # the runs in between play differently (not only under another label), so state leaking
+    # from one mission into the next would show above: Policy 1 never declines, Policy 3 does
+    assert runs[0]["declines"] == 0 < runs[1]["declines"]
+    assert runs[0]["makespan_s"] != runs[1]["makespan_s"] != runs[3]["makespan_s"]
 
 
 def test_event_log_identical_for_the_same_seed_and_differs_for_another():
@@ -63,7 +62,7 @@ def test_operator_actions_replay_to_the_same_run():
         replay.apply(action)
     replay.run()
     assert trace_digest(live) == trace_digest(replay)
-    assert without_wall(live.metrics()) == without_wall(replay.metrics())
+    assert live.metrics() == replay.metrics()
 
 
 # One seed's whole event log per policy, pinned. A change here means the engine's behaviour
