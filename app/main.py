@@ -16,7 +16,6 @@ from app import logs
 from app.api import errors
 from app.api.deps import Services
 from app.api.routes import api_router
-from app.api.routes import sweeps as sweep_routes
 from app.datalock import DataLock
 from app.db.integrity import sqlite_file
 from app.db.migrate import upgrade
@@ -33,9 +32,10 @@ from app.security import resolve_token
 from app.services.commands import RobotCommands
 from app.services.missions import MissionService
 from app.services.store import Store
-from app.services.sweeps import SweepManager
 from app.settings import Settings
 from app.startup import preflight
+from app.sweeps import routes as sweep_routes
+from app.sweeps.service import SweepManager
 
 log = logging.getLogger("regolith")
 
@@ -71,7 +71,6 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
             if stale := await sweeps.start():
                 log.warning("%d sweep(s) were left running; marked interrupted", stale)
             stack.push_async_callback(sweeps.aclose)
-            app.state.sweeps = sweeps
             missions = MissionService(settings, store, runner)
             app.state.services = Services(
                 settings=settings,
@@ -79,6 +78,7 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
                 runner=runner,
                 missions=missions,
                 commands=RobotCommands(missions),
+                sweeps=sweeps,
                 token=token,
                 limiter=RateLimiter(settings.rate_limit_per_s, settings.rate_limit_burst),
             )

@@ -18,6 +18,7 @@ from app.services.commands import RobotCommands
 from app.services.missions import MissionService
 from app.services.store import Store
 from app.settings import Settings
+from app.sweeps.service import SweepManager
 
 
 @dataclass
@@ -29,6 +30,7 @@ class Services:
     runner: MissionRunner
     missions: MissionService
     commands: RobotCommands
+    sweeps: SweepManager
     token: str
     limiter: RateLimiter
 

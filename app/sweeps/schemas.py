@@ -1,4 +1,4 @@
-"""Sweep API schemas (`POST /api/sweeps` and its reads), named by role like `schemas.py`."""
+"""Sweep API schemas (`POST /api/sweeps` and its reads), named by role like `app/api/schemas.py`."""
 
 from __future__ import annotations
 

@@ -7,8 +7,8 @@ sweep gets one thread that drives `run_sweep` over a process pool it owns
 server's GIL. The journal in `<data_dir>/sweeps/<id>/` is the truth about finished runs; the
 `sweeps` row holds status and progress, written through the store like every other write.
 Cancel and server stop kill the workers at once: a run in flight was never journaled, so a
-resume simply runs it again. The thread side is `sweep_job.py`; reading a sweep's folder for
-the API is `sweep_files.py`.
+resume simply runs it again. The thread side is `job.py`; reading a sweep's folder for
+the API is `files.py`.
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ from app.db.models import Sweep as SweepRow
 from app.db.models import utcnow
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.store import Store
-from app.services.sweep_files import check_build, figure_links, read_results, set_aside
-from app.services.sweep_job import SweepJob, halt, progress_fields, work
 from app.settings import Settings
+from app.sweeps.files import check_build, figure_links, read_results, set_aside
+from app.sweeps.job import SweepJob, halt, progress_fields, work
 from engine import POLICY_NAMES, Scenario, ScenarioError, reference_scenario, resolve_policy
 from experiments.spec import PolicyRef, SpecError, SweepSpec, make_spec, parse_policies
 

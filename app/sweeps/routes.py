@@ -7,15 +7,14 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Path, Query, status
 from fastapi.responses import FileResponse
 from starlette.concurrency import run_in_threadpool
-from starlette.requests import HTTPConnection
 
 from app.api.deps import Operator, ServicesDep, Viewer
 from app.api.schemas import ErrorRead
-from app.api.sweep_schemas import SweepCreate, SweepDetail, SweepPage, SweepRead, SweepStatus
 from app.services.errors import Invalid
 from app.services.scenario_limits import check_size, check_world
-from app.services.sweeps import SweepManager
 from app.settings import Settings
+from app.sweeps.schemas import SweepCreate, SweepDetail, SweepPage, SweepRead, SweepStatus
+from app.sweeps.service import SweepManager
 from engine import Scenario, ScenarioError, reference_scenario
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
@@ -42,9 +41,8 @@ FigureName = Annotated[
 _MEDIA = {"png": "image/png", "svg": "image/svg+xml"}
 
 
-async def get_sweeps(conn: HTTPConnection) -> SweepManager:
-    manager: SweepManager = conn.app.state.sweeps
-    return manager
+async def get_sweeps(services: ServicesDep) -> SweepManager:
+    return services.sweeps
 
 
 SweepsDep = Annotated[SweepManager, Depends(get_sweeps)]

@@ -1,6 +1,6 @@
 """A sweep job's thread side: drive `run_sweep` over a process pool it owns, stop on demand.
 
-Kept apart from the manager (`app/services/sweeps.py`) because everything here runs on the
+Kept apart from the manager (`app/sweeps/service.py`) because everything here runs on the
 job's own thread, never on the event loop: the only things shared with the loop are the
 progress attribute (one store per run), the stop flag and the future that carries the outcome.
 The derived files (statistics, figures) are written in the pool too, so matplotlib and scipy
