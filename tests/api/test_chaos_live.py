@@ -4,7 +4,8 @@ delivered, and the server never answers 5xx.
 
 The server is the real `regolith serve` in its own process (tests/api/serve_process.py), so
 the viewers' reading threads never share its GIL. The generator's seed is printed (pytest
-shows it with a failure) and named in every assertion; `REGOLITH_CHAOS_SEED=<seed>` repeats
+shows it with a failure) and named in every assertion. CI uses a fixed seed;
+`REGOLITH_CHAOS_SEED=random` explores and `REGOLITH_CHAOS_SEED=<seed>` repeats
 that run's choices (not its timing: what the robots are doing when an action lands depends on
 the wall clock).
 """
@@ -246,6 +247,9 @@ class Chaos:
         return n
 
 
+DEFAULT_SEED = 2026_11_23
+
+
 def _settle(api: httpx.Client, mid: int, seed: int) -> None:
     """Enable every robot that is down, then let the mission run flat out."""
     base = f"/api/missions/{mid}"
@@ -286,7 +290,10 @@ def _server_errors(log: str) -> list[str]:
 
 @pytest.mark.slow  # about 65 s; CI runs every test (`make test`: pytest -q)
 def test_chaos_three_missions_ten_viewers_then_everything_completes(tmp_path: Path) -> None:
-    seed = int(os.environ.get("REGOLITH_CHAOS_SEED") or random.SystemRandom().randrange(2**32))
+    # a fixed seed by default, so CI repeats the same choices (their timing still varies with
+    # the wall clock); REGOLITH_CHAOS_SEED=random explores, any number repeats that one
+    chosen = os.environ.get("REGOLITH_CHAOS_SEED", str(DEFAULT_SEED))
+    seed = random.SystemRandom().randrange(2**32) if chosen == "random" else int(chosen)
     print(f"\nchaos seed {seed} (REGOLITH_CHAOS_SEED={seed} repeats its choices)")
     rng = random.Random(seed)
     started = time.monotonic()
