@@ -6,7 +6,7 @@ import asyncio
 import json
 from typing import Any
 
-from app.live import CLOSE_BAD_DATA, CLOSE_TOO_BIG, CLOSE_TOO_SLOW, Hub, serve_viewer
+from app.live.hub import CLOSE_BAD_DATA, CLOSE_TOO_BIG, CLOSE_TOO_SLOW, Hub, Viewer, serve_viewer
 
 
 class FakeSocket:
@@ -18,11 +18,19 @@ class FakeSocket:
         self.inbox = list(inbox or [])
         self.closed: int | None = None
         self._never = asyncio.Event()
+        self._sent_more = asyncio.Event()
 
     async def send_text(self, text: str) -> None:
         if self.stalled:
             await self._never.wait()
         self.sent.append(json.loads(text))
+        self._sent_more.set()
+
+    async def wait_sent(self, n: int) -> None:
+        """Until `n` messages have been sent (`_run`'s timeout bounds the wait)."""
+        while len(self.sent) < n:
+            self._sent_more.clear()
+            await self._sent_more.wait()
 
     async def receive(self) -> dict[str, Any]:
         if self.inbox:
@@ -38,6 +46,11 @@ def _run(coro: Any) -> Any:
     return asyncio.run(asyncio.wait_for(coro, timeout=5))
 
 
+def _drained(viewer: Viewer) -> bool:
+    """Nothing left to send: no queued message and no pending frame."""
+    return not viewer.queue and viewer.frame is None
+
+
 def test_ordered_messages_keep_order_and_only_the_newest_frame_is_sent() -> None:
     async def scenario() -> FakeSocket:
         hub = Hub(max_queue=100)
@@ -47,9 +60,11 @@ def test_ordered_messages_keep_order_and_only_the_newest_frame_is_sent() -> None
             hub.publish_frame({"t": i})
             hub.publish({"type": "event", "n": i})
         task = asyncio.create_task(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
-        await asyncio.sleep(0.05)
+        await ws.wait_sent(5)  # the snapshot, three events and one frame ...
+        assert _drained(viewer)  # ... and nothing else is waiting to go
         hub.publish_frame({"t": 9}, last=True)
-        await asyncio.sleep(0.05)
+        await ws.wait_sent(6)
+        assert _drained(viewer)
         task.cancel()
         return ws
 
@@ -78,7 +93,7 @@ def test_a_viewer_that_stops_reading_is_dropped_and_others_are_not_slowed() -> N
             hub.publish({"type": "event", "n": i})
             await asyncio.sleep(0)
         await asyncio.wait_for(tasks[0], timeout=2)  # the stuck one is gone
-        await asyncio.sleep(0.05)
+        await fine.wait_sent(1 + 200)  # the other got its snapshot and every event
         tasks[1].cancel()
         return stuck, fine, hub
 

@@ -37,6 +37,12 @@ def open_live(page: Page, mission_id: int) -> None:
     wait_for(page, "window.__regolith && window.__regolith.frames >= 3")
 
 
+def next_robot_poll(page: Page, mission_id: int) -> None:
+    """Wait for the live view's next robot-list poll (once a second) to be answered."""
+    path = f"/api/missions/{mission_id}/robots"
+    page.wait_for_event("response", lambda r: r.url.endswith(path), timeout=10_000)
+
+
 def free_point(page: Page) -> tuple[float, float]:
     """A point on the map well clear of craters and the plant, away from the overlays."""
     world = page.evaluate("window.__regolith.map")
@@ -58,7 +64,16 @@ def test_page_loads_without_console_errors(
     page.get_by_role("link", name="Compare").click()
     expect(page.locator("#view-compare")).to_be_visible()
     open_live(page, mission["id"])
-    page.wait_for_timeout(1500)  # a second of frames, charts and robot-list polls
+    # let the page's periodic work run: a robot-list poll answered, the charts drawn, and a
+    # second of frames (10 Hz) after it
+    next_robot_poll(page, mission["id"])
+    frames = page.evaluate("window.__regolith.frames")
+    wait_for(
+        page,
+        f"window.__regolith.frames >= {frames + 10}"
+        " && !!document.querySelector('#chart-minerals svg')"
+        " && !!document.querySelector('#chart-distance svg')",
+    )
     assert console.errors == []
 
 

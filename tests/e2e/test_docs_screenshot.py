@@ -11,7 +11,7 @@ import pytest
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import REPO
-from tests.e2e.test_dashboard import Start, open_live, wait_for
+from tests.e2e.test_dashboard import Start, next_robot_poll, open_live, wait_for
 
 pytestmark = pytest.mark.skipif(
     os.environ.get("REGOLITH_DOCS_SCREENSHOT") != "1",
@@ -27,7 +27,12 @@ def test_live_view_screenshot_for_the_readme(operator: Page, start_mission: Star
     wait_for(page, "(window.__regolith.lastCounters || {}).minerals_delivered >= 22", timeout=90)
     page.locator('[data-speed="0"]').click()
     expect(page.locator("#live-status")).to_have_attribute("data-status", "paused")
-    page.wait_for_timeout(1500)  # the charts redraw once a second
+    next_robot_poll(page, mission["id"])  # the robot list as paused
+    wait_for(  # both charts drawn, with data (no "no data yet" placeholder)
+        page,
+        "document.querySelectorAll('#chart-minerals svg, #chart-distance svg').length === 2"
+        " && !document.querySelector('#chart-minerals .empty, #chart-distance .empty')",
+    )
     page.mouse.move(5, 795)  # no hover highlight in the picture
     out = REPO / "docs" / "img" / "live.png"
     out.parent.mkdir(parents=True, exist_ok=True)
