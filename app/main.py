@@ -21,13 +21,13 @@ from app.db.integrity import sqlite_file
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_sessionmaker
 from app.db.wal import WalCheckpointer
+from app.live.runner import MissionRunner
 from app.middleware import (
     LimitBodyMiddleware,
     RequestContextMiddleware,
     SecurityHeadersMiddleware,
 )
 from app.ratelimit import RateLimiter
-from app.runner import MissionRunner
 from app.security import resolve_token
 from app.services.commands import RobotCommands
 from app.services.missions import MissionService

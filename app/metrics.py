@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-from app.live import STATS
-from app.runner import MissionRunner
+from app.live.hub import STATS
+from app.live.runner import MissionRunner
 from app.services.store import Store
 
 

@@ -11,8 +11,8 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.requests import HTTPConnection
 
 from app.clientaddr import client_address
+from app.live.runner import MissionRunner
 from app.ratelimit import RateLimiter
-from app.runner import MissionRunner
 from app.security import token_matches
 from app.services.commands import RobotCommands
 from app.services.missions import MissionService

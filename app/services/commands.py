@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from app.runner import LiveMission
+from app.live.runner import LiveMission
 from app.services.errors import Invalid, LimitExceeded, NotFound
 from app.services.missions import MissionService
 from engine import CommandRejected

@@ -14,8 +14,8 @@ from typing import Any, Literal
 
 from app.db.models import Mission as MissionRow
 from app.db.models import utcnow
-from app.live import Hub, Viewer, encode
-from app.runner import LiveMission, MissionRunner
+from app.live.hub import Hub, Viewer, encode
+from app.live.runner import LiveMission, MissionRunner
 from app.services import queries
 from app.services.admission import Admission
 from app.services.errors import Conflict, LimitExceeded, NotFound

@@ -9,7 +9,7 @@ from fastapi import APIRouter, WebSocket
 from app.api.convert import mission_read
 from app.api.deps import get_services
 from app.db.models import Mission as MissionRow
-from app.live import CLOSE_POLICY, serve_viewer
+from app.live.hub import CLOSE_POLICY, serve_viewer
 from app.security import token_matches
 from app.services.errors import LimitExceeded, NotFound
 from app.services.missions import LiveState

@@ -1,8 +1,8 @@
 """The live runner: the registry of live missions and everything the event loop does for them.
 
-Missions advance on the stepping thread (`app/stepper.py`); everything else that touches
+Missions advance on the stepping thread (`app/live/stepper.py`); everything else that touches
 an engine (commands, snapshots, frames, fan-out, batching) happens on the event loop under
-the same gate (`app/gate.py`), so no two threads ever touch the engine at once. Every
+the same gate (`app/live/gate.py`), so no two threads ever touch the engine at once. Every
 `tick_s` the loop streams what the engine produced and writes it in batches; a separate task
 samples frames at a steady rate.
 """
@@ -19,13 +19,13 @@ from time import perf_counter
 from typing import Any
 
 from app.db.models import utcnow
-from app.gate import Gate
-from app.heap import Heap
-from app.live import Hub
+from app.live.gate import Gate
+from app.live.gc_pause import Heap
+from app.live.hub import Hub
+from app.live.stepper import Stepper
 from app.services.recorder import Recorder
 from app.services.store import Store
 from app.settings import Settings
-from app.stepper import Stepper
 from engine import Event, Mission
 
 log = logging.getLogger("regolith.runner")

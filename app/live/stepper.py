@@ -18,10 +18,10 @@ from collections.abc import Callable, Iterable
 from time import perf_counter
 from typing import TYPE_CHECKING
 
-from app.gate import Gate
+from app.live.gate import Gate
 
 if TYPE_CHECKING:
-    from app.runner import LiveMission
+    from app.live.runner import LiveMission
 
 log = logging.getLogger("regolith.stepper")
 _MIN_CHUNK, _MAX_CHUNK = 1e-3, 600.0
