@@ -292,7 +292,7 @@ def _server_errors(log: str) -> list[str]:
 def test_chaos_three_missions_ten_viewers_then_everything_completes(tmp_path: Path) -> None:
     # a fixed seed by default, so CI repeats the same choices (their timing still varies with
     # the wall clock); REGOLITH_CHAOS_SEED=random explores, any number repeats that one
-    chosen = os.environ.get("REGOLITH_CHAOS_SEED", str(DEFAULT_SEED))
+    chosen = os.environ.get("REGOLITH_CHAOS_SEED") or str(DEFAULT_SEED)
     seed = random.SystemRandom().randrange(2**32) if chosen == "random" else int(chosen)
     print(f"\nchaos seed {seed} (REGOLITH_CHAOS_SEED={seed} repeats its choices)")
     rng = random.Random(seed)
