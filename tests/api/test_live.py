@@ -3,13 +3,9 @@
 from __future__ import annotations
 
 import asyncio
-import base64
 import json
-import os
-import socket
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +13,7 @@ import httpx
 import pytest
 import websockets
 
+from bench.slow_viewer import gauge, stalled_viewer
 from tests.api.conftest import LiveServer, all_pages, recv, recv_until
 from tests.api.serve_process import ServeProcess
 
@@ -205,73 +202,22 @@ def test_policy_change_mid_mission_is_recorded(server: LiveServer, api: httpx.Cl
     assert [m["id"] for m in listed["items"]] == [mid]
 
 
-def _stalled_viewer(port: int, mission_id: int) -> socket.socket:
-    """A raw WebSocket client that completes the handshake and then never reads again.
-
-    A small receive buffer and segment size (536 bytes, like a slow remote link) keep what the
-    kernel holds for it to ~100 KB; with loopback's 64 KB segments the server's send buffer
-    autotunes to ~2.8 MB, which takes many seconds to fill."""
-    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
-    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_MAXSEG, 536)
-    sock.connect(("127.0.0.1", port))
-    key = base64.b64encode(os.urandom(16)).decode()
-    sock.sendall(
-        (
-            f"GET /api/missions/{mission_id}/live HTTP/1.1\r\nHost: 127.0.0.1\r\n"
-            "Upgrade: websocket\r\nConnection: Upgrade\r\n"
-            f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
-        ).encode()
-    )
-    assert b" 101 " in sock.recv(1024)
-    return sock
-
-
-@dataclass
-class Window:
-    """What the reading viewers saw during one measured window."""
-
-    delays_ms: list[float]  # receive time - the frame's server `wall` stamp, every reader
-    frames_per_reader: float
-    sim_rate: float  # simulated seconds per wall second, from the frames' (wall, t)
-    viewers: list[int]  # the server's viewer count for the mission, sampled each second
-    backlog: list[int]  # ordered messages waiting for its slowest viewer, sampled each second
-
-    def q(self, q: float) -> float:
-        ordered = sorted(self.delays_ms)
-        return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
-
-    def line(self, name: str) -> str:
-        return (
-            f"  {name:28s} frame delay p50 {self.q(0.5):5.1f} ms  p99 {self.q(0.99):6.1f} ms  "
-            f"{self.frames_per_reader:4.1f} frames/s per reader  "
-            f"{self.sim_rate:4.0f} sim s per wall s  viewers {self.viewers}"
-        )
-
-
-SLOW_SPEED = 300.0  # well inside what the engine does on a loaded machine: pacing, not capacity
-SLOW_READERS, SLOW_WINDOW_S, SLOW_HZ = 10, 3.0, 20
+SLOW_READERS, SLOW_HZ = 3, 20
 _FRAME = '{"type":"frame",'  # frames are recognised without parsing every event
 
 
-def _gauge(metrics: str, name: str, mission_id: int) -> int:
-    prefix = f'{name}{{mission="{mission_id}"}} '
-    found = [x[len(prefix) :] for x in metrics.splitlines() if x.startswith(prefix)]
-    return int(float(found[0])) if found else 0
-
-
-async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Window]:
-    """Ten readers watch `mid` through three windows: clean; with a stalled viewer whose
-    socket is full (the server's sends to it block and its queue grows); clean again after
-    a spell at "max" filled its queue and the server dropped it."""
+async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Any]:
+    """Readers watch `mid` while a viewer that never reads joins: its sends block and its
+    queue grows while the readers keep receiving frames; at "max" its queue fills and the
+    server drops it, and the readers carry on. Every step waits for a condition."""
     url = f"ws://127.0.0.1:{port}/api/missions/{mid}/live"
-    seen: list[tuple[int, float, float, float]] = []  # (reader, wall, t, delay ms)
+    frames = [0] * SLOW_READERS
+    out: dict[str, Any] = {}
 
     async def read(ws: websockets.ClientConnection, reader: int) -> None:
         async for raw in ws:
             if isinstance(raw, str) and raw.startswith(_FRAME):
-                now, frame = time.time(), json.loads(raw)
-                seen.append((reader, frame["wall"], frame["t"], (now - frame["wall"]) * 1000))
+                frames[reader] += 1
 
     async def call(method: str, path: str, **kw: Any) -> httpx.Response:
         r = await asyncio.to_thread(api.request, method, path, **kw)
@@ -280,47 +226,45 @@ async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Wi
 
     async def gauges() -> tuple[int, int]:
         text = (await call("GET", "/api/metrics")).text
-        return _gauge(text, "regolith_viewers", mid), _gauge(text, "regolith_viewer_backlog", mid)
+        return gauge(text, "regolith_viewers", mid), gauge(text, "regolith_viewer_backlog", mid)
 
-    async def until(done: Callable[[int, int], bool]) -> None:
-        """Wait for the viewers/backlog gauges to say so."""
-        deadline = time.monotonic() + 30
-        while not done(*await gauges()):
-            assert time.monotonic() < deadline, "the stalled viewer never filled up"
+    async def until(what: str, done: Callable[[], Awaitable[bool]]) -> None:
+        deadline = time.monotonic() + 60
+        while not await done():
+            assert time.monotonic() < deadline, f"never: {what}"
             await asyncio.sleep(0.05)
 
-    async def window() -> Window:
-        start, counts = time.time(), []
-        for _ in range(int(SLOW_WINDOW_S)):
-            await asyncio.sleep(1.0)
-            counts.append(await gauges())
-        end = time.time()
-        mine = [(r, w, t, d) for r, w, t, d in seen if start <= w < end]
-        ticks = [(w, t) for r, w, t, _ in mine if r == 0]
-        (w0, t0), (w1, t1) = ticks[0], ticks[-1]
-        return Window(
-            delays_ms=[d for *_, d in mine],
-            frames_per_reader=len(mine) / SLOW_READERS / (end - start),
-            sim_rate=(t1 - t0) / (w1 - w0),
-            viewers=[v for v, _ in counts],
-            backlog=[b for _, b in counts],
-        )
+    async def more_frames(n: int) -> None:
+        """Every reader receives `n` more frames."""
+        floor = min(frames) + n
+
+        async def done() -> bool:
+            return min(frames) >= floor
+
+        await until(f"{n} more frames for every reader", done)
+
+    async def attached_and_queueing() -> bool:
+        viewers, backlog = await gauges()
+        return viewers == SLOW_READERS + 1 and backlog > 50
 
     sockets = [await websockets.connect(url, max_size=2**24) for _ in range(SLOW_READERS)]
     for ws in sockets:
         assert json.loads(await ws.recv())["type"] == "snapshot"
     tasks = [asyncio.create_task(read(ws, i)) for i, ws in enumerate(sockets)]
     await call("POST", f"/api/missions/{mid}/resume")
-    await asyncio.sleep(0.5)
-    out = {"before": await window()}
-    stall = await asyncio.to_thread(_stalled_viewer, port, mid)
-    await until(lambda viewers, backlog: backlog > 50)  # its sends block: it queues
-    out["stalled"] = await window()
+    await more_frames(5)
+    stall = await asyncio.to_thread(stalled_viewer, port, mid)
+    await until("the stalled viewer's sends block and its queue grows", attached_and_queueing)
+    await more_frames(2 * SLOW_HZ)  # two seconds' worth while it is stuck
+    out["attached"] = await gauges()  # still there, still not served
     await call("PUT", f"/api/missions/{mid}/speed", json={"speed": "max"})
-    await until(lambda viewers, backlog: viewers == SLOW_READERS)  # its queue filled: dropped
-    await call("PUT", f"/api/missions/{mid}/speed", json={"speed": SLOW_SPEED})
-    await asyncio.sleep(0.5)  # settle at the test speed again
-    out["after"] = await window()
+
+    async def dropped() -> bool:
+        return (await gauges())[0] == SLOW_READERS
+
+    await until("the stalled viewer is dropped once its queue is full", dropped)
+    await more_frames(5)  # the others carry on
+    out["metrics"] = (await call("GET", "/api/metrics")).text
     stall.close()
     # close while the readers keep draining: a client that stops reading (its own queue
     # full) would not see the server's close frame until its close timeout
@@ -329,45 +273,22 @@ async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, Wi
     return out
 
 
-def test_a_stalled_viewer_never_slows_the_mission_or_other_viewers(tmp_path: Path) -> None:
-    """Issue 7: ten reading viewers' frame delay and the mission's pace, with and without an
-    eleventh viewer that never reads (a raw socket that stops after the handshake).
+def test_a_stalled_viewer_queues_then_is_dropped_and_others_keep_their_frames(
+    tmp_path: Path,
+) -> None:
+    """Issue 7, the behaviour: a viewer that never reads (a raw socket that stops after the
+    handshake) does not hold up the others. Its sends block, its queue grows while the
+    readers keep receiving frames, and once the queue is full the server drops it.
 
-    The server runs in its own process (the readers never share its GIL). One long mission
-    at 300x, 20 frames/s, three 3 s windows (~600 frames each): before the stalled viewer
-    connects, while its socket is full and its queue grows (the server's sends to it block),
-    and after the server dropped it (a spell at "max" fills its 4,000-message queue). The
-    stalled window is compared with the two clean ones pooled, which bracket it in time, so
-    a load spike on a shared machine hits both sides.
-    Medians are compared (2x plus a 20 ms floor): p99 on a loaded 2-core machine is
-    scheduler noise of tens to hundreds of ms either way, so it is printed, not asserted.
-    """
-    body = {"seed": 8, "speed": SLOW_SPEED, "paused": True, "scenario": LONG, "planner": "straight"}
+    How much it costs the others in frame delay and pace is measured, not asserted here:
+    bench/service_bench.py --stalled compares it with a control run (docs/benchmarks.md).
+    The server runs in its own process, as `regolith serve`."""
+    body = {"seed": 8, "speed": 300, "paused": True, "scenario": LONG, "planner": "straight"}
     env = {"REGOLITH_FRAME_HZ": str(SLOW_HZ), "REGOLITH_VIEWER_QUEUE": "4000"}
     with ServeProcess(tmp_path, "--log-level", "warning", **env) as srv, srv.client() as api:
         mid = api.post("/api/missions", json=body).json()["id"]
-        runs = asyncio.run(_stall_session(srv.port, api, mid))
-        metrics = api.get("/api/metrics").text
+        out = asyncio.run(_stall_session(srv.port, api, mid))
         api.post(f"/api/missions/{mid}/stop").raise_for_status()
-    before, stalled, after = runs["before"], runs["stalled"], runs["after"]
-    clean = Window(
-        before.delays_ms + after.delays_ms,
-        (before.frames_per_reader + after.frames_per_reader) / 2,
-        (before.sim_rate + after.sim_rate) / 2,
-        before.viewers + after.viewers,
-        before.backlog + after.backlog,
-    )
-    print(f"\nslow client: {SLOW_READERS} readers at {SLOW_SPEED:g}x, {SLOW_HZ} frames/s")
-    for name, run in (("before", before), ("stalled viewer attached", stalled), ("after", after)):
-        print(run.line(name))
-    print(f"  stalled viewer's backlog during its window: {stalled.backlog}")
-
-    assert stalled.viewers == [SLOW_READERS + 1] * len(stalled.viewers)  # attached throughout
-    assert all(b > 0 for b in stalled.backlog)  # and not being served: its sends were blocked
-    assert clean.viewers == [SLOW_READERS] * len(clean.viewers)
-    assert "regolith_viewers_dropped_total 1.0" in metrics  # dropped once its queue filled
-    assert stalled.q(0.5) <= 2 * clean.q(0.5) + 20
-    assert stalled.frames_per_reader >= 0.5 * clean.frames_per_reader
-    # the mission kept its pace, stall or not (the first check only guards the measurement)
-    assert clean.sim_rate > 0.8 * SLOW_SPEED
-    assert stalled.sim_rate > 0.9 * min(clean.sim_rate, SLOW_SPEED)
+    viewers, backlog = out["attached"]
+    assert viewers == SLOW_READERS + 1 and backlog > 50
+    assert "regolith_viewers_dropped_total 1.0" in out["metrics"]
