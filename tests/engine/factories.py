@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from engine import Mission, Scenario, parse_scenario
+from tests.engine.invariants import InvariantWatch
 
 
 def small_scenario(**overrides: Any) -> Scenario:
@@ -45,3 +46,22 @@ def quiet_scenario(**overrides: Any) -> Scenario:
 
 def events_of(m: Mission, kind: str) -> list[dict[str, Any]]:
     return [dict(e.data, t=e.t) for e in m.events if e.kind == kind]
+
+
+FAILURES = ((98.0, "scout-1"), (155.0, "hauler-1"), (400.0, "excavator-2"))
+"""One robot of each type fails abruptly, while the others of its type carry on."""
+
+
+def run_with_failures(policy: str, seed: int) -> Mission:
+    """A small world (3 sites, 9 minerals; 2 scouts, 2 excavators, 3 haulers) run to its end
+    under `policy` with `FAILURES`, the invariants checked at every event and at the end."""
+    team = {"scouts": 2, "excavators": 2, "haulers": 3}
+    m = Mission(small_scenario(sites=3, minerals=9, team=team), seed, policy)
+    watch = InvariantWatch(m)
+    for t, name in FAILURES:
+        m.advance(t)
+        if not m.done:
+            m.disable_robot(name, "abrupt")
+    m.run()
+    watch.final()
+    return m
