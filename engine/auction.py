@@ -1,4 +1,4 @@
-"""The MURDOCH-variant auction (SPEC §5): first-price, one round, broadcast.
+"""The MURDOCH-variant auction (docs/spec.md §6): first-price, one round, broadcast.
 
 `rank_bids` and `select_winner` are the pure decisions. `AuctionHouse` is the auctioneer role
 any robot (or the operator) plays: it announces, collects bids for the bid window, awards the
@@ -251,7 +251,7 @@ class AuctionHouse:
         self.ctx.close_auction(rec, status, winner)
 
     def _ranked(self, rec: AuctionRecord, live: _Live) -> list[str]:
-        """Award order: the bids ranked (SPEC §5.4), or the policy's oracle's choice."""
+        """Award order: the bids ranked (docs/spec.md §6.4), or the policy's oracle's choice."""
         oracle = self.ctx.policy.allocator()
         if oracle is None:
             return rank_bids(live.live_bids, live.declined)

@@ -1,4 +1,4 @@
-"""The broadcast publish/subscribe bus. Every robot hears every message (SPEC §4).
+"""The broadcast publish/subscribe bus. Every robot hears every message (docs/spec.md §5).
 
 `Bus` is the interface robots use; `EmbeddedBus` delivers in process through the simulation
 clock, with seeded loss and latency for fault studies. A middleware bus (e.g. Zenoh) would

@@ -1,4 +1,4 @@
-"""The typed, validated messages robots broadcast on the bus (SPEC §4–5, §8)."""
+"""The typed, validated messages robots broadcast on the bus (docs/spec.md §5–6, §10)."""
 
 from __future__ import annotations
 

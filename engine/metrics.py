@@ -1,4 +1,4 @@
-"""The figures SPEC §7 asks for, computed from a run's state and records."""
+"""The figures docs/spec.md §9 asks for, computed from a run's state and records."""
 
 from __future__ import annotations
 

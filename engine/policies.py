@@ -1,4 +1,4 @@
-"""How a robot treats several open auctions (SPEC §6), behind one interface.
+"""How a robot treats several open auctions (docs/spec.md §8), behind one interface.
 
 A policy answers four questions, each a pure function of what the robot itself knows:
 which open auctions to bid in now, whether to gather simultaneous awards before answering,
@@ -98,7 +98,7 @@ class Policy:
 
     def allocator(self) -> Allocator | None:
         """An oracle that picks auction winners from global state (the centralized baseline);
-        None: the auctioneer ranks the bids (SPEC §5)."""
+        None: the auctioneer ranks the bids (docs/spec.md §6)."""
         return None
 
 

@@ -2,7 +2,7 @@
 
 A scenario plus a seed fully determines a run. Quantities the research design leaves open
 (speeds, dig/transfer/unload times, protocol timeouts) carry documented defaults here; see
-docs/scenario.md for the reasoning behind each.
+docs/spec.md §2 for the reasoning behind each.
 """
 
 from __future__ import annotations
@@ -110,7 +110,8 @@ class BusConfig(_Model):
 
 
 class Scenario(_Model):
-    """A whole mission's world and parameters. Defaults are SPEC §1's reference scenario."""
+    """A whole mission's world and parameters; the defaults are the reference scenario
+    (docs/spec.md §2)."""
 
     name: Annotated[str, Field(min_length=1, max_length=80)] = "reference"
     width: Annotated[float, Field(gt=0, le=5000, allow_inf_nan=False)] = 100.0
@@ -196,7 +197,7 @@ class Scenario(_Model):
 
 
 def reference_scenario() -> Scenario:
-    """SPEC §1's reference scenario."""
+    """The reference scenario (docs/spec.md §2)."""
     return Scenario()
 
 

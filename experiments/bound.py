@@ -2,7 +2,7 @@
 
 The bound holds for every allocation policy, decentralized or central: it uses only the
 physics (speeds, the straight line as the shortest path), the task chain (find → dig →
-transfer → haul → unload), the scouts' spiral (SPEC §2, fixed before any auction) and the
+transfer → haul → unload), the scouts' spiral (docs/spec.md §7, fixed before any auction) and the
 robots' start ring. docs/experiments.md derives each term; `makespan / bound` then says how
 far a run is from the best any allocator could possibly do.
 """

@@ -1,4 +1,4 @@
-"""The bidder role every capable robot plays (SPEC §5.2–5.5): which open auctions to bid in
+"""The bidder role every capable robot plays (docs/spec.md §6.2–6.5): which open auctions to bid in
 (the policy decides), the utility it bids, answering awards, and holding an accepted award
 until the auctioneer's Close confirms it. Split from `base` so each file holds one concept."""
 
@@ -205,7 +205,8 @@ class Bidder:
         return 0.0, self.position()[0]
 
     def cost_to(self, a: OpenAuction) -> float:
-        """Length of the path this robot would drive to the task (SPEC §5.2); inf if none."""
+        """Length of the path this robot would drive to the task (docs/spec.md §6.2); inf if
+        there is none."""
         try:
             return path_length(self.ctx.planner.plan(self.pos, a.location))
         except PlanningError:

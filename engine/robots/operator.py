@@ -1,5 +1,5 @@
-"""The human operator's console: an auctioneer on the bus with no body (SPEC §3: any robot or
-a human can auction a task). It cannot fail, and it answers no auctions."""
+"""The human operator's console: an auctioneer on the bus with no body (docs/spec.md §4: any
+robot or a human can auction a task). It cannot fail, and it answers no auctions."""
 
 from __future__ import annotations
 

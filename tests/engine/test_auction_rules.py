@@ -1,4 +1,4 @@
-"""The protocol's pure decisions (SPEC §5–6) on hand-made inputs."""
+"""The protocol's pure decisions (docs/spec.md §6, §8) on hand-made inputs."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""SPEC §2: every cell scanned exactly once across all scouts, nearest cells first."""
+"""docs/spec.md §7: every cell scanned exactly once across all scouts, nearest cells first."""
 
 import math
 

@@ -12,5 +12,5 @@ router = APIRouter(prefix="/scenarios", tags=["scenarios"], dependencies=[Viewer
 
 @router.get("/reference")
 async def reference() -> Scenario:
-    """SPEC §1's reference scenario with every default spelled out."""
+    """The reference scenario (docs/spec.md §2) with every default spelled out."""
     return reference_scenario()
