@@ -221,13 +221,17 @@ class Robot(Bidder, Recovery):
             return []
         return remaining_path(m.path, min(m.length, (self.env.now - m.t0) * m.speed))
 
-    def drive(self, path: Path) -> Any:
-        """Drive along a path at this robot's speed; interruptible only by failure."""
+    def drive(self, path: Path, report: bool = False) -> Any:
+        """Drive along a path at this robot's speed; interruptible only by failure. With
+        `report`, a heartbeat goes out as it sets off, saying where it is going (a hauler with
+        a mineral: if it fails on the way, its watcher searches that very route)."""
         length = path_length(path)
         if length <= 0.0:
             self.pos = path[-1]
             return
         self.motion = Motion(float(self.env.now), path, length, self.speed)
+        if report:
+            self.heartbeat()
         yield self.env.timeout(length / self.speed)
         self._end_motion(length)
 

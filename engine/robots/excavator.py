@@ -116,7 +116,8 @@ class Excavator(Robot):
             yield self.env.timeout(dig_s - later)
 
     def _transport_id(self, kind: str) -> str:
-        """A task id never used before: `t` transports auctioned ahead, `r` one offered again for a full bucket."""
+        """A task id never used before: `t` for a transport auctioned ahead, `r` for one
+        offered again for a full bucket."""
         self._transport_serial += 1
         return f"{self.name}#{kind}{self._transport_serial}"
 

@@ -143,7 +143,7 @@ class Hauler(Robot):
 
     def deliver(self) -> Any:
         self.state = "carrying"
-        yield from self.go_to(self.ctx.world.plant)
+        yield from self.drive(self.ctx.planner.plan(self.pos, self.ctx.world.plant), report=True)
         self.state = "unloading"
         yield self.env.timeout(self.ctx.scenario.timing.unload_s)
         self.bin = 0
