@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import simpy
 
-from engine.auction import AuctionRecord
+from engine.auction_rules import AuctionRecord
 from engine.events import Event, EventLog
 from engine.geometry import Point, dist
 from engine.liveness import Liveness
@@ -261,9 +261,6 @@ class MissionContext:
             "ground": len(self.ground),
             "delivered": self.delivered,
         }
-
-    def robot_type_names(self, rtype: str) -> list[str]:
-        return sorted(n for n, r in self.robots.items() if r.rtype == rtype)
 
     def emit(self, kind: str, /, **data: Any) -> None:
         self.log.emit(kind, **data)

@@ -16,7 +16,7 @@ from typing import Any, Literal
 import numpy as np
 import simpy
 
-from engine.auction import AuctionRecord
+from engine.auction_rules import AuctionRecord
 from engine.bus import EmbeddedBus
 from engine.context import MissionContext
 from engine.errors import CommandRejected, UnknownRobotError
@@ -81,6 +81,9 @@ class Mission(MissionViews):
             for _ in range(n):
                 robots.append(self._make_robot(rtype, next(starts)))
         ctx.liveness.introduce_all(0.0)
+        roster = {r.name: r.rtype for r in robots}  # the team that starts together knows itself
+        for r in robots:
+            r.peers = dict(roster)
         for r in robots:
             r.start()
         self._stalled = self.env.event()

@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
-from engine.auction import Allocation, AuctionHouse, Duties
+from engine.auction_house import AuctionHouse
+from engine.auction_rules import Allocation, Duties
 from engine.geometry import Point, path_length, point_along, remaining_path
 from engine.messages import (
     Ack,
@@ -99,6 +100,7 @@ class Robot(Bidder, Recovery):
         self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
         self.done_ids: deque[str] = deque(maxlen=DONE_MEMORY)
         self.completed: set[str] = set()  # tasks I finished for good
+        self.peers = {name: self.rtype}  # name -> type, from the roster, Hello and heartbeats
         self.dormant = Duties()
         self.rejoining = False
         self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
@@ -286,7 +288,7 @@ class Robot(Bidder, Recovery):
             msg.opened_at,
             msg.search_path,
         )
-        if self.ctx.robots.get(msg.sender, self).rtype == self.rtype:
+        if self.peer_type(msg.sender) == self.rtype:
             self.peer_open.setdefault(msg.sender, {})[msg.auction_id] = info
         # a duplicate auction for a task I am auctioning: the smaller name keeps it
         for rec in list(self.house.open_auctions.values()):
@@ -313,6 +315,21 @@ class Robot(Bidder, Recovery):
                 key=lambda a: a.order,
             )
         return self._in_order
+
+    def peer_type(self, name: str) -> str | None:
+        """What a peer is, as far as messages have told me (None: never heard of it)."""
+        rtype = self.peers.get(name)
+        if rtype is None:
+            hb = self.ctx.liveness.last_heartbeat(self.name, name)
+            if hb is not None:
+                rtype = self.peers[name] = hb.rtype
+        return rtype
+
+    def peers_of_type(self, rtype: str) -> list[str]:
+        """Every robot of this type I know of, me included, by name."""
+        for name in self.ctx.liveness.names:  # the senders whose heartbeats reach me
+            self.peer_type(name)
+        return sorted(n for n, t in self.peers.items() if t == rtype)
 
     def on_task_heard(self, info: OpenAuction) -> None:
         """Hook: any announcement (scouts learn of sites their peers found)."""
@@ -376,6 +393,7 @@ class Robot(Bidder, Recovery):
         """Hook for subclasses."""
 
     def _on_hello(self, msg: Hello) -> None:
+        self.peers[msg.sender] = msg.rtype
         self.house.reannounce_open()
         self.return_duties(msg.sender)
         self.on_hello_heard(msg)

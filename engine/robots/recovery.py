@@ -7,14 +7,14 @@ from __future__ import annotations
 from collections import deque
 from typing import TYPE_CHECKING, Any
 
-from engine.auction import AUCTION_KINDS, Allocation, Duties
+from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
 from engine.messages import Heartbeat, Holding, Leaving, Probe, Revoke, Takeover
 from engine.planning import PlanningError
 
 if TYPE_CHECKING:
     import simpy
 
-    from engine.auction import AuctionHouse
+    from engine.auction_house import AuctionHouse
     from engine.context import MissionContext
     from engine.geometry import Point
     from engine.policies import OpenAuction
@@ -60,6 +60,8 @@ class Recovery:
         def peer_alive(self, name: str) -> bool: ...
         def _spawn(self, gen: Any) -> None: ...
         def wake(self) -> None: ...
+        def peer_type(self, name: str) -> str | None: ...
+        def peers_of_type(self, rtype: str) -> list[str]: ...
 
     # --- liveness, monitoring, adoption ---------------------------------------------------
     def heartbeat(self) -> None:
@@ -157,8 +159,7 @@ class Recovery:
                 self.forget_auction(aid)
         if self.reserved is not None and self.reserved.auctioneer == peer:
             self.reserved = None
-        peer_robot = self.ctx.robots.get(peer)
-        if peer_robot is not None and peer_robot.rtype == self.rtype and self.is_adopter(peer):
+        if self.peer_type(peer) == self.rtype and self.is_adopter(peer):
             self.adopt(peer)
         self.consider_bids()
 
@@ -166,7 +167,7 @@ class Recovery:
         """The smallest-named live robot of my type adopts a silent peer."""
         if not self.participating:
             return False
-        for name in self.ctx.robot_type_names(self.rtype):
+        for name in self.peers_of_type(self.rtype):
             if name == peer or name in self.down:
                 continue
             if name == self.name:

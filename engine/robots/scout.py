@@ -168,7 +168,7 @@ class Scout(Robot):
         # scouts, so they agree on the donor
         reported = len(self.route) - self._reported
         board = self.ctx.liveness
-        for name in self.ctx.robot_type_names("scout"):
+        for name in self.peers_of_type("scout"):
             if name in (self.name, to) or name in self.down or not self.peer_alive(name):
                 continue
             hb = board.last_heartbeat(self.name, name)
