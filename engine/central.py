@@ -27,7 +27,7 @@ from engine.geometry import path_length
 from engine.planning import PlanningError
 
 if TYPE_CHECKING:
-    from engine.auction import AuctionRecord
+    from engine.auction_rules import AuctionRecord
     from engine.context import MissionContext
     from engine.robots.base import Robot
 

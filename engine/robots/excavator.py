@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import simpy
 
-from engine.auction import Allocation
+from engine.auction_rules import Allocation
 from engine.context import NEAR
 from engine.geometry import Point, dist, path_length
 from engine.messages import Close

@@ -2,7 +2,7 @@
 
 import math
 
-from engine.auction import rank_bids, select_winner
+from engine.auction_rules import rank_bids, select_winner
 from engine.policies import (
     AnticipatoryCoalitions,
     FirstComeFirstServed,
