@@ -22,6 +22,7 @@ from app.db.migrate import upgrade
 from app.db.session import make_engine, make_sessionmaker
 from app.db.wal import WalCheckpointer
 from app.live.runner import MissionRunner
+from app.metrics import metrics_registry
 from app.middleware import (
     LimitBodyMiddleware,
     RequestContextMiddleware,
@@ -81,6 +82,7 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
                 sweeps=sweeps,
                 token=token,
                 limiter=RateLimiter(settings.rate_limit_per_s, settings.rate_limit_burst),
+                metrics=metrics_registry(runner, store),
             )
             yield
 

@@ -1,12 +1,24 @@
-"""`GET /api/metrics` in the Prometheus text format: what an operator graphs and alerts on."""
+"""`GET /api/metrics` in the Prometheus text format: what an operator graphs and alerts on.
+
+The values are read from the runner, the hub's statistics and the store when scraped, so
+they come from a custom `prometheus_client` collector registered in a registry of the app's
+own (`metrics_registry`), never the process-global one: tests start many apps in a process.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+
+from prometheus_client import CollectorRegistry, generate_latest
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
+from prometheus_client.registry import Collector
 
 from app.live.hub import STATS
 from app.live.runner import MissionRunner
 from app.services.store import Store
+
+CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
 
 
 def _q(values: list[float], q: float) -> float:
@@ -16,98 +28,95 @@ def _q(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
 
 
-def _num(x: float) -> str:
-    if math.isnan(x):
-        return "NaN"
-    return "+Inf" if math.isinf(x) else repr(float(x))
+class RegolithCollector(Collector):
+    """Gauges and counters of the whole server, read at scrape time."""
+
+    def __init__(self, runner: MissionRunner, store: Store) -> None:
+        self.runner = runner
+        self.store = store
+
+    def collect(self) -> Iterator[Metric]:
+        runner, store = self.runner, self.store
+        live = [lm for lm in runner.live.values() if not lm.finishing]
+        by_status: dict[str, int] = {"running": 0, "paused": 0}
+        for lm in live:
+            by_status[lm.status] = by_status.get(lm.status, 0) + 1
+        m = GaugeMetricFamily(
+            "regolith_missions_live", "Live missions by status.", labels=["status"]
+        )
+        for s, n in sorted(by_status.items()):
+            m.add_metric([s], n)
+        yield m
+
+        speed = GaugeMetricFamily(
+            "regolith_mission_speed",
+            "Asked simulation speed (sim s per wall s; +Inf is max).",
+            labels=["mission"],
+        )
+        sim_time = GaugeMetricFamily(
+            "regolith_mission_sim_time_seconds", "Simulation time reached.", labels=["mission"]
+        )
+        auctions = CounterMetricFamily(
+            "regolith_mission_auctions", "Auctions opened so far.", labels=["mission"]
+        )
+        for lm in live:
+            key = [str(lm.id)]
+            speed.add_metric(key, math.inf if lm.speed is None else lm.speed)
+            sim_time.add_metric(key, lm.mission.now)
+            auctions.add_metric(key, len(lm.mission.auctions))
+        yield from (speed, sim_time, auctions)
+
+        viewers = GaugeMetricFamily(
+            "regolith_viewers", "Connected WebSocket viewers.", labels=["mission"]
+        )
+        backlog = GaugeMetricFamily(
+            "regolith_viewer_backlog",
+            "Ordered messages waiting for each mission's slowest viewer (dropped at "
+            "REGOLITH_VIEWER_QUEUE); above 0 only while a viewer's socket is not keeping up.",
+            labels=["mission"],
+        )
+        for mid, hub in sorted(runner.hubs.items()):
+            viewers.add_metric([str(mid)], len(hub))
+            backlog.add_metric([str(mid)], max((len(v.queue) for v in hub.viewers), default=0))
+        yield from (viewers, backlog)
+
+        # quantiles of a sliding window: a summary without _count and _sum
+        delay = Metric(
+            "regolith_frame_delay_seconds",
+            "Server-side frame age when handed to a socket (last 5000 frames).",
+            "summary",
+        )
+        delays = list(STATS.frame_delays)
+        for q in ("0.5", "0.99"):
+            delay.add_sample("regolith_frame_delay_seconds", {"quantile": q}, _q(delays, float(q)))
+        yield delay
+
+        yield CounterMetricFamily("regolith_frames_sent", "Frames sent.", STATS.frames_sent)
+        yield CounterMetricFamily(
+            "regolith_frames_dropped",
+            "Stale frames replaced before they were sent.",
+            STATS.frames_dropped,
+        )
+        yield CounterMetricFamily(
+            "regolith_viewers_dropped", "Viewers closed for falling behind.", STATS.viewers_dropped
+        )
+        yield CounterMetricFamily("regolith_db_writes", "Write transactions.", store.writes)
+        yield CounterMetricFamily(
+            "regolith_db_write_seconds", "Time spent in write transactions.", store.write_seconds
+        )
+        yield GaugeMetricFamily(
+            "regolith_db_write_seconds_max", "Longest write transaction.", store.write_max
+        )
+        yield GaugeMetricFamily("regolith_db_write_queue", "Writes waiting.", store.queued)
 
 
-def render(runner: MissionRunner, store: Store) -> str:
-    """Gauges and counters of the whole server (the caller holds the engine gate)."""
-    lines: list[str] = []
+def metrics_registry(runner: MissionRunner, store: Store) -> CollectorRegistry:
+    """A registry of this app's own holding its one collector."""
+    registry = CollectorRegistry(auto_describe=False)
+    registry.register(RegolithCollector(runner, store))
+    return registry
 
-    def metric(name: str, kind: str, help_: str, samples: list[tuple[str, float]]) -> None:
-        lines.append(f"# HELP {name} {help_}")
-        lines.append(f"# TYPE {name} {kind}")
-        lines.extend(f"{name}{labels} {_num(value)}" for labels, value in samples)
 
-    live = [lm for lm in runner.live.values() if not lm.finishing]
-    by_status: dict[str, int] = {"running": 0, "paused": 0}
-    for lm in live:
-        by_status[lm.status] = by_status.get(lm.status, 0) + 1
-    metric(
-        "regolith_missions_live",
-        "gauge",
-        "Live missions by status.",
-        [(f'{{status="{s}"}}', n) for s, n in sorted(by_status.items())],
-    )
-    each = [(f'{{mission="{lm.id}"}}', lm) for lm in live]
-    metric(
-        "regolith_mission_speed",
-        "gauge",
-        "Asked simulation speed (sim s per wall s; +Inf is max).",
-        [(k, math.inf if lm.speed is None else lm.speed) for k, lm in each],
-    )
-    metric(
-        "regolith_mission_sim_time_seconds",
-        "gauge",
-        "Simulation time reached.",
-        [(k, lm.mission.now) for k, lm in each],
-    )
-    metric(
-        "regolith_mission_auctions_total",
-        "counter",
-        "Auctions opened so far.",
-        [(k, len(lm.mission.auctions)) for k, lm in each],
-    )
-    metric(
-        "regolith_viewers",
-        "gauge",
-        "Connected WebSocket viewers.",
-        [(f'{{mission="{mid}"}}', len(hub)) for mid, hub in sorted(runner.hubs.items())],
-    )
-    metric(
-        "regolith_viewer_backlog",
-        "gauge",
-        "Ordered messages waiting for each mission's slowest viewer (dropped at "
-        "REGOLITH_VIEWER_QUEUE); above 0 only while a viewer's socket is not keeping up.",
-        [
-            (f'{{mission="{mid}"}}', max((len(v.queue) for v in hub.viewers), default=0))
-            for mid, hub in sorted(runner.hubs.items())
-        ],
-    )
-    delays = list(STATS.frame_delays)
-    metric(
-        "regolith_frame_delay_seconds",
-        "summary",
-        "Server-side frame age when handed to a socket (last 5000 frames).",
-        [('{quantile="0.5"}', _q(delays, 0.5)), ('{quantile="0.99"}', _q(delays, 0.99))],
-    )
-    metric("regolith_frames_sent_total", "counter", "Frames sent.", [("", STATS.frames_sent)])
-    metric(
-        "regolith_frames_dropped_total",
-        "counter",
-        "Stale frames replaced before they were sent.",
-        [("", STATS.frames_dropped)],
-    )
-    metric(
-        "regolith_viewers_dropped_total",
-        "counter",
-        "Viewers closed for falling behind.",
-        [("", STATS.viewers_dropped)],
-    )
-    metric("regolith_db_writes_total", "counter", "Write transactions.", [("", store.writes)])
-    metric(
-        "regolith_db_write_seconds_total",
-        "counter",
-        "Time spent in write transactions.",
-        [("", store.write_seconds)],
-    )
-    metric(
-        "regolith_db_write_seconds_max",
-        "gauge",
-        "Longest write transaction.",
-        [("", store.write_max)],
-    )
-    metric("regolith_db_write_queue", "gauge", "Writes waiting.", [("", store.queued)])
-    return "\n".join(lines) + "\n"
+def render(registry: CollectorRegistry) -> bytes:
+    """The exposition text (the caller holds the engine gate: the collector reads missions)."""
+    return generate_latest(registry)

@@ -8,6 +8,7 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Path, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from prometheus_client import CollectorRegistry
 from starlette.requests import HTTPConnection
 
 from app.clientaddr import client_address
@@ -33,6 +34,8 @@ class Services:
     sweeps: SweepManager
     token: str
     limiter: RateLimiter
+    metrics: CollectorRegistry
+    """This app's Prometheus registry (`app/metrics.py`), not the process-global one."""
 
 
 def get_services(conn: HTTPConnection) -> Services:

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from fastapi import APIRouter
-from fastapi.responses import PlainTextResponse
+from fastapi.responses import PlainTextResponse, Response
 
 from app.api.deps import ServicesDep, Viewer
 from app.api.schemas import Health
-from app.metrics import render
+from app.metrics import CONTENT_TYPE, render
 
 router = APIRouter(tags=["health"])
 
@@ -23,8 +23,8 @@ async def health(services: ServicesDep) -> Health:
 
 
 @router.get("/metrics", response_class=PlainTextResponse, dependencies=[Viewer])
-async def metrics(services: ServicesDep) -> PlainTextResponse:
+async def metrics(services: ServicesDep) -> Response:
     """Prometheus text format: live missions, speeds, viewers, frame delay, DB writes."""
     with services.runner.gate:
-        text = render(services.runner, services.store)
-    return PlainTextResponse(text, media_type="text/plain; version=0.0.4")
+        body = render(services.metrics)
+    return Response(body, media_type=CONTENT_TYPE)
