@@ -88,6 +88,13 @@ class TaskCreate(_In):
     location: Point
 
 
+class ScenarioFile(_In):
+    """A scenario file's text as uploaded (`POST /api/scenarios/parse`)."""
+
+    text: str
+    format: Literal["toml", "json"] = "toml"
+
+
 class ActionRead(BaseModel):
     model_config = ConfigDict(from_attributes=True)
 
