@@ -9,7 +9,6 @@ simulation times) give the same run, bit for bit.
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Iterable
 from typing import Any, Literal
 
@@ -44,7 +43,6 @@ class Mission(MissionViews):
         policy: str | int = "fcfs",
         planner: PlannerKind = "ompl",
     ) -> None:
-        t0 = time.perf_counter()
         if not isinstance(seed, int) or seed < 0:
             raise ValueError("seed: must be a whole number >= 0")
         self.scenario = scenario
@@ -91,7 +89,6 @@ class Mission(MissionViews):
         self.actions: list[dict[str, Any]] = []
         self.status = "running"
         self._closed = False
-        self._wall = time.perf_counter() - t0
 
     # --- construction helpers -------------------------------------------------------------
     def _start_positions(self, n: int) -> list[tuple[float, float]]:
@@ -146,7 +143,6 @@ class Mission(MissionViews):
         """Process every event up to simulation time `until` (clamped to the mission's end)."""
         if self.done:
             return
-        t0 = time.perf_counter()
         env, finished = self.env, self.ctx.finished
         limit = min(float(until), self.scenario.max_time_s)
         stalled = self._stalled
@@ -163,7 +159,6 @@ class Mission(MissionViews):
             self._end("timeout")
         elif limit > env.now:
             env.run(until=limit)
-        self._wall += time.perf_counter() - t0
 
     def _watch_for_stall(self) -> Any:
         """End the mission `stalled` once nothing has moved it forward for stall_timeout_s."""
@@ -190,12 +185,6 @@ class Mission(MissionViews):
             self.ctx.planner.close()
 
     # --- reading ------------------------------------------------------------------------
-    @property
-    def wall_s(self) -> float:
-        """Wall-clock seconds spent building and advancing this mission: the machine's time,
-        not the mission's, so it is kept beside `metrics()` and never in it."""
-        return self._wall
-
     def metrics(self) -> dict[str, Any]:
         """The run's figures: a pure function of scenario, seed, planner and actions."""
         out: dict[str, Any] = {
