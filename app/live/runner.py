@@ -105,6 +105,20 @@ class LiveMission:
         }
 
 
+def auction_dict(record: dict[str, Any]) -> dict[str, Any]:
+    """An auction in the one shape every answer carries (REST `AuctionRead`, the stream's
+    `auction` messages, a snapshot's open auctions): the engine's record plus `declines`."""
+    declines = sum(1 for w in record["awards"] if w["outcome"] == "declined")
+    return {**record, "declines": declines}
+
+
+def stream_state(state: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A snapshot (live, or stored as a mission's final state) with its auctions so shaped."""
+    if state is None:
+        return None
+    return {**state, "auctions": [auction_dict(a) for a in state["auctions"]]}
+
+
 class MissionRunner:
     """Owns the live missions, their hubs, the stepping thread and the loop-side tasks."""
 
@@ -241,7 +255,7 @@ class MissionRunner:
         by_id = {rec.id: rec for rec in lm.mission.auctions if rec.id in dirty}
         for aid in sorted(dirty):
             if aid in by_id:
-                lm.hub.publish({"type": "auction", "auction": by_id[aid].to_dict()})
+                lm.hub.publish({"type": "auction", "auction": auction_dict(by_id[aid].to_dict())})
 
     def _write(self, lm: LiveMission, changes: dict[str, Any] | None = None) -> asyncio.Task[None]:
         """Write what `lm` produced since the last write (under the gate), after that write:

@@ -15,7 +15,7 @@ from typing import Any, Literal
 from app.db.models import Mission as MissionRow
 from app.db.models import utcnow
 from app.live.hub import Hub, Viewer, encode
-from app.live.runner import LiveMission, MissionRunner
+from app.live.runner import LiveMission, MissionRunner, stream_state
 from app.services import queries
 from app.services.admission import Admission
 from app.services.errors import Conflict, LimitExceeded, NotFound
@@ -314,13 +314,14 @@ class MissionService:
             lm = self.runner.live.get(mission_id)
             if state is None or lm is None:
                 message = {"mission": render(row, None), "map": row.world_map}
-                return self._join(mission_id, ws, {**message, "state": row.final_state})
+                state = stream_state(row.final_state)
+                return self._join(mission_id, ws, {**message, "state": state})
             lm.row = lm.row or row
         with self.gate:
             self.runner.publish_pending(lm)
             m = lm.mission
             message = {"mission": render(lm.row, live_state(lm)), "map": m.world_map()}
-            return self._join(mission_id, ws, {**message, "state": m.snapshot()})
+            return self._join(mission_id, ws, {**message, "state": stream_state(m.snapshot())})
 
     def _join(self, mission_id: int, ws: Any, message: dict[str, Any]) -> tuple[Hub, Viewer]:
         hub = self.runner.hub(mission_id)

@@ -68,6 +68,8 @@ def test_snapshot_frames_and_events_until_the_mission_finishes(
         last = streamed[a["id"]]
         assert (last["status"], last["allocated_to"]) == (a["status"], a["allocated_to"])
         assert len(last["bids"]) == len(a["bids"])
+        assert set(last) == set(a)  # one shape: the stream's auction is an AuctionRead
+        assert last["declines"] == a["declines"]
     record = api.get(f"/api/missions/{mid}").json()
     assert record["status"] == "completed" and record["metrics"]["minerals_delivered"] == 64
 
