@@ -236,7 +236,7 @@ class Mission(MissionViews):
         self.ctx.emit("policy_changed", old=old, new=name)
         for r in self._robots():
             r.wake()
-            r.consider_bids()
+            r.policy_changed()
         return name
 
     def disable_robot(self, name: str, mode: str = "graceful") -> None:

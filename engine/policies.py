@@ -1,11 +1,15 @@
 """How a robot treats several open auctions (docs/spec.md §8), behind one interface.
 
-A policy answers four questions, each a pure function of what the robot itself knows:
-which open auctions to bid in now, whether to gather simultaneous awards before answering,
-whether excavator–hauler coalitions are active, and when an excavator auctions the transport
-of its next mineral. A new policy is one subclass with its metadata (number, name, label,
-colour, description, decentralized) passed to `register_policy`; the CLI, the API, the
-dashboard and the tests all read the registry (`policy_table`), so nothing else changes.
+A policy is a strategy over a read-only view of the robot (`engine.bidding.RobotView`) and
+what the robot knows; it answers, as pure functions: which open auctions to bid in
+(`bid_targets`), what to bid and when to bid again (`bids`, choosing one of the rules in
+engine/bidding.py), whether to gather simultaneous awards and which to keep
+(`collects_awards`, `choose_award`), how many won tasks a robot may queue (`queue_limit`),
+whether excavator–hauler coalitions are active (`coalitions`), and when an excavator
+auctions the transport of its next mineral (`transport_lead_s`). A new policy is one
+subclass with its metadata (number, name, label, colour, description, decentralized) passed
+to `register_policy`; no robot code changes, and the CLI, the API, the dashboard and the
+tests all read the registry (`policy_table`).
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, TypedDict
 
+from engine.bidding import BidMemory, Bids, RobotView, distance_bids, time_bids
 from engine.messages import Location, TaskType
 
 if TYPE_CHECKING:
@@ -64,6 +69,11 @@ class Policy:
         """
         raise NotImplementedError
 
+    def bids(self, view: RobotView, targets: Sequence[OpenAuction], mem: BidMemory) -> Bids:
+        """The bids to send now in the target auctions: the negated path length by default
+        (docs/spec.md §6.2); `engine/bidding.py` holds the rules to choose from."""
+        return distance_bids(view, targets, mem)
+
     def collects_awards(self) -> bool:
         """Gather awards that arrive together and keep only the best?"""
         return False
@@ -90,11 +100,6 @@ class Policy:
         """How many won tasks a robot of this type may hold beside the one it works on and
         still bid a finite utility (0: a robot with any task is busy and bids -inf)."""
         return 0
-
-    def bids_time(self) -> bool:
-        """Bid the negated expected arrival time (seconds: time until free + travel) instead of
-        the negated path length (metres)?"""
-        return False
 
     def allocator(self) -> Allocator | None:
         """An oracle that picks auction winners from global state (the centralized baseline);
@@ -228,8 +233,21 @@ class NearestFirst(Policy):
         return True
 
 
+class EarlyTransports(Policy):
+    """Every mineral's transport is auctioned one hauler drive (from the plant) plus one dig
+    before its bucket is expected to fill, so a hauler stands by when it does (`lead`)."""
+
+    lead = True
+
+    def transport_lead_s(self, haul_s: float, dig_s: float) -> float:
+        return haul_s + dig_s if self.lead else 0.0
+
+    def early_transports(self) -> bool:
+        return self.lead
+
+
 @register_policy
-class Lookahead(Policy):
+class Lookahead(EarlyTransports):
     """Policy 4: act on what is about to happen (rules, reasons, measurements: docs/policies.md).
 
     - every mineral's transport is auctioned one hauler drive (from the plant) plus one dig
@@ -245,7 +263,6 @@ class Lookahead(Policy):
     number, name = 4, "lookahead"
     label, colour = "Lookahead", "#0072b2"
     description = "early transport auctions, arrival-time bids, one-task queues"
-    lead = True
     queue: dict[str, int] = {"hauler": 1, "excavator": 1}  # noqa: RUF012 - read-only table
     time_bids = True
     bid_all = True
@@ -255,24 +272,18 @@ class Lookahead(Policy):
     ) -> list[OpenAuction]:
         return list(auctions) if self.bid_all else earliest(auctions)
 
+    def bids(self, view: RobotView, targets: Sequence[OpenAuction], mem: BidMemory) -> Bids:
+        return (time_bids if self.time_bids else distance_bids)(view, targets, mem)
+
     def collects_awards(self) -> bool:
         return self.bid_all
-
-    def transport_lead_s(self, haul_s: float, dig_s: float) -> float:
-        return haul_s + dig_s if self.lead else 0.0
-
-    def early_transports(self) -> bool:
-        return self.lead
 
     def queue_limit(self, rtype: str) -> int:
         return self.queue.get(rtype, 0)
 
-    def bids_time(self) -> bool:
-        return self.time_bids
-
 
 @register_policy
-class Central(Policy):
+class Central(EarlyTransports):
     """The centralized baseline (number 0): an oracle with global knowledge picks every
     auction's winner by an optimal assignment (engine/central.py). Robots bid in every open
     auction, so the records look like the others'; the bids do not decide anything."""
@@ -280,19 +291,12 @@ class Central(Policy):
     number, name = 0, "central"
     label, colour = "Central", "#bbbbbb"
     description = "centralized oracle baseline: optimal assignment from global knowledge"
-    decentralized = False
-    lead = True  # Policy 4's early transport auctions, so only the allocation differs
+    decentralized = False  # Policy 4's early transport auctions: only the allocation differs
 
     def bid_targets(
         self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
     ) -> list[OpenAuction]:
         return list(auctions)
-
-    def transport_lead_s(self, haul_s: float, dig_s: float) -> float:
-        return haul_s + dig_s if self.lead else 0.0
-
-    def early_transports(self) -> bool:
-        return self.lead
 
     def allocator(self) -> Allocator | None:
         from engine.central import OracleAllocator

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import simpy
 
+from engine.bidding import BidMemory
 from engine.geometry import Point, path_length
 from engine.messages import Ack, Award, Bid, TaskType
 from engine.planning import PlanningError
@@ -18,9 +19,6 @@ from engine.policies import OpenAuction, PendingAward
 if TYPE_CHECKING:
     from engine.context import MissionContext
     from engine.robots.base import Assignment
-
-REBID_S = 2.0
-"""A time-bidding robot re-sends a bid when its estimate moved by more than this (seconds)."""
 
 
 class Bidder:
@@ -136,7 +134,13 @@ class Bidder:
         timeout = self.ctx.scenario.protocol.failure_timeout_s
         return name not in self.down and self.env.now - heard <= timeout
 
+    def policy_changed(self) -> None:
+        """A new policy may bid in other units or by other rules: look at everything afresh."""
+        self._bid_situation = ()
+        self.consider_bids()
+
     def consider_bids(self) -> None:
+        """Send the bids my policy asks for, given what I know (`engine/bidding.py`)."""
         if not self.participating or self.capability is None:
             return
         auctions = self.auctions_in_order()
@@ -145,51 +149,17 @@ class Bidder:
         policy = self.ctx.policy
         targets = policy.bid_targets(self.rtype, self.in_coalition(), auctions)
         busy = not self.has_room()
-        if policy.bids_time():
-            self._bid_times(targets, busy)
-            return
-        every_round = self.ctx.scenario.protocol.busy_bid == "every_round"
-        for a in targets:
-            prev = self.my_bids.get(a.auction_id)
-            rnd = self.rounds.get(a.auction_id, 0)
-            if busy:
-                # -inf tells the auctioneer "capable, but busy"; by default once per auction
-                if prev is None or (every_round and prev[0] != rnd):
-                    self._bid(a, rnd, -math.inf)
-            elif prev is None or prev[0] != rnd or not math.isfinite(prev[1]):
-                self._bid(a, rnd, -self.cost_to(a))
-
-    def _bid_times(self, targets: list[OpenAuction], busy: bool) -> None:
-        """Bids of a time-bidding policy: -(expected arrival time).
-
-        Auctions (or rounds) I have not bid in get a bid. The others are looked at again only
-        when my own situation changed (a task won or finished, a load, a stop): then a bid is
-        re-sent if the estimate moved by more than `REBID_S`, and a robot that has run out of
-        room withdraws its finite bids with -inf, so a winner is rarely one that must decline.
-        A busy robot's -inf is sent once per auction, as under the other policies.
-        """
         situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
-        changed = situation != self._bid_situation
+        mem = BidMemory(
+            busy=busy,
+            sent=self.my_bids,
+            rounds=self.rounds,
+            changed=situation != self._bid_situation,
+            every_round=self.ctx.scenario.protocol.busy_bid == "every_round",
+        )
         self._bid_situation = situation
-        every_round = self.ctx.scenario.protocol.busy_bid == "every_round"
-        for a in targets:
-            prev = self.my_bids.get(a.auction_id)
-            rnd = self.rounds.get(a.auction_id, 0)
-            fresh = prev is None or prev[0] != rnd
-            if not (fresh or changed):
-                continue
-            if busy:
-                if prev is None or math.isfinite(prev[1]) or (every_round and prev[0] != rnd):
-                    self._bid(a, rnd, -math.inf)
-                continue
-            utility = -self.eta_to(a)
-            if (
-                prev is None
-                or prev[0] != rnd
-                or not math.isfinite(prev[1])
-                or abs(prev[1] - utility) > REBID_S
-            ):
-                self._bid(a, rnd, utility)
+        for a, rnd, utility in policy.bids(self, targets, mem):
+            self._bid(a, rnd, utility)
 
     def eta_to(self, a: OpenAuction) -> float:
         """Seconds until this robot could stand at the task: finish what it holds, then drive."""

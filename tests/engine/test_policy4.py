@@ -32,7 +32,7 @@ def test_lookahead_is_policy_4():
     assert resolve_policy("4") == "lookahead"
     p = Lookahead()
     assert p.transport_lead_s(haul_s=40.0, dig_s=20.0) == 60.0
-    assert p.early_transports() and p.bids_time()
+    assert p.early_transports() and p.time_bids
     assert p.queue_limit("hauler") == 1 and p.queue_limit("scout") == 0
 
 
