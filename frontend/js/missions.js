@@ -4,7 +4,6 @@ import { $, h, fmt, toast } from "./dom.js";
 import { get, isOperator, post, qs } from "./api.js";
 import { policyLabel } from "./policies.js";
 import { ENDED } from "./status.js";
-import { parseToml } from "./toml.js";
 
 const PAGE = 20;
 
@@ -12,7 +11,8 @@ export class MissionsPage {
   constructor() {
     this.offset = 0;
     this.total = 0;
-    this.scenario = null; // parsed uploaded scenario, or null for the reference
+    this.file = null; // the chosen scenario file
+    this.scenario = null; // promise of the server's reading of it (the scenario, or null)
     this.filter = $("#history-filter");
     this.filter.addEventListener("change", () => {
       this.offset = 0;
@@ -62,9 +62,8 @@ export class MissionsPage {
     const f = this.filter;
     try {
       const data = await get(`/missions${qs({ status: f.status.value, policy: f.policy.value, limit: PAGE, offset: this.offset })}`);
-      const items = Array.isArray(data) ? data : data.items || [];
-      this.total = data.total ?? items.length;
-      this.render(items);
+      this.total = data.total;
+      this.render(data.items);
     } catch (err) {
       $("#history tbody").replaceChildren(h("tr", {}, h("td", { colspan: 8, class: "muted" }, `Could not load missions: ${err.message}`)));
     }
@@ -72,9 +71,9 @@ export class MissionsPage {
 
   render(items) {
     const rows = items.map((m) => {
-      const metrics = m.metrics || metricsCache.get(m.id) || {};
-      const delivered = metrics.minerals_delivered ?? m.minerals_delivered;
-      const total = metrics.minerals_total ?? m.minerals_total;
+      const metrics = metricsCache.get(m.id) ?? {}; // the list carries no metrics
+      const delivered = metrics.minerals_delivered;
+      const total = metrics.minerals_total;
       return h(
         "tr",
         { dataset: { mission: m.id, status: m.status, policy: m.policy } },
@@ -82,9 +81,9 @@ export class MissionsPage {
         h("td", {}, h("span", { class: "badge", dataset: { status: m.status } }, m.status)),
         h("td", {}, policyLabel(m.policy)),
         h("td", { class: "num" }, m.seed),
-        h("td", {}, m.scenario_name || m.scenario?.name || (typeof m.scenario === "string" ? m.scenario : "reference")),
+        h("td", {}, m.scenario_name),
         h("td", { class: "num", dataset: { cell: "makespan" } }, makespanText(metrics)),
-        h("td", { class: "num", dataset: { cell: "minerals" } }, delivered !== undefined ? `${delivered}/${total ?? "?"}` : "–"),
+        h("td", { class: "num", dataset: { cell: "minerals" } }, delivered !== undefined ? `${delivered}/${total}` : "–"),
         h("td", {}, m.created_at ? new Date(m.created_at).toLocaleString() : "–"),
       );
     });
@@ -101,33 +100,38 @@ export class MissionsPage {
   async fillMetrics(items) {
     await Promise.all(
       items
-        .filter((m) => !m.metrics && !(metricsCache.has(m.id) && FINISHED.has(m.status)))
+        .filter((m) => !(metricsCache.has(m.id) && FINISHED.has(m.status)))
         .map(async (m) => {
-          const metrics = await missionMetrics(m.id, m.status);
+          const metrics = await missionMetrics(m.id);
           const row = document.querySelector(`#history tr[data-mission="${m.id}"]`);
           if (!metrics || !row) return;
           row.querySelector('[data-cell="makespan"]').textContent = makespanText(metrics);
-          row.querySelector('[data-cell="minerals"]').textContent = `${metrics.minerals_delivered ?? "–"}/${metrics.minerals_total ?? "?"}`;
+          row.querySelector('[data-cell="minerals"]').textContent = `${metrics.minerals_delivered}/${metrics.minerals_total}`;
         }),
     );
   }
 
-  async readScenario(form) {
+  /** The chosen file's text goes to the server, which parses it (TOML or JSON) and answers
+   * the validated scenario, every default spelled out, or an error naming the field or line. */
+  readScenario(form) {
     const file = form.scenario_file.files[0];
+    $("#scenario-summary").textContent = "";
+    this.file = file || null;
+    this.scenario = file ? this._parse(file, form) : null;
+  }
+
+  async _parse(file, form) {
     const out = $("#scenario-summary");
-    this.scenario = null;
-    out.textContent = "";
-    if (!file) return;
     try {
-      const text = await file.text();
-      const data = file.name.toLowerCase().endsWith(".toml") ? parseToml(text) : JSON.parse(text);
-      if (!data || typeof data !== "object" || Array.isArray(data)) throw new Error("the file must hold one table/object");
-      this.scenario = data;
-      const team = data.team || {};
-      out.textContent = `${data.name || file.name}: ${data.width ?? 100}×${data.height ?? 100} m, ${data.sites ?? 10} sites, team ${team.scouts ?? 2}/${team.excavators ?? 4}/${team.haulers ?? 6}`;
+      const format = file.name.toLowerCase().endsWith(".toml") ? "toml" : "json";
+      const s = await post("/scenarios/parse", { text: await file.text(), format });
+      if (this.file !== file) return null;
+      out.textContent = `${s.name}: ${s.width}×${s.height} m, ${s.sites} sites, team ${s.team.scouts}/${s.team.excavators}/${s.team.haulers}`;
       form.querySelector("input[name=scenario][value=file]").checked = true;
+      return s;
     } catch (err) {
-      out.textContent = `Cannot read ${file.name}: ${err.message}`;
+      if (this.file === file) out.textContent = `Cannot read ${file.name}: ${err.message}`;
+      return null;
     }
   }
 
@@ -140,11 +144,12 @@ export class MissionsPage {
       speed: form.speed.value === "max" ? "max" : Number(form.speed.value),
     };
     if (form.querySelector("input[name=scenario]:checked").value === "file") {
-      if (!this.scenario) {
-        err.textContent = "Choose a scenario file first (or use the reference scenario).";
+      const scenario = await this.scenario; // the server's reading of the chosen file
+      if (!scenario) {
+        err.textContent = this.file ? `${this.file.name} is not a scenario this server takes (see above).` : "Choose a scenario file first (or use the reference scenario).";
         return;
       }
-      body.scenario = this.scenario;
+      body.scenario = scenario;
     }
     try {
       const m = await post("/missions", body);
@@ -161,11 +166,11 @@ const FINISHED = ENDED;
 const metricsCache = new Map(); // mission id -> metrics of a mission that has ended
 
 /** A mission's metrics (live or final); those of ended missions are read once. */
-export async function missionMetrics(id, status) {
+export async function missionMetrics(id) {
   if (metricsCache.has(id)) return metricsCache.get(id);
   try {
     const m = await get(`/missions/${encodeURIComponent(id)}`);
-    if (m.metrics && FINISHED.has(m.status ?? status)) metricsCache.set(id, m.metrics);
+    if (m.metrics && FINISHED.has(m.status)) metricsCache.set(id, m.metrics);
     return m.metrics;
   } catch {
     return null;

@@ -232,7 +232,7 @@ def test_graceful_disable_shows_disabled(operator: Page, start_mission: Start) -
 
 
 SCENARIO_TOML = """\
-# a small team on a small area, read by the dashboard's TOML reader
+# a small team on a small area, read by the server (POST /api/scenarios/parse)
 name = "e2e-small"
 width = 60.0
 height = 60.0
@@ -258,8 +258,7 @@ def test_start_mission_from_an_uploaded_toml_scenario(
     path.write_text(SCENARIO_TOML)
     page.goto("/#/missions")
     form = page.locator("#start-form")
-    form.get_by_label("Scenario file").set_input_files(str(path))
-    expect(page.locator("#scenario-summary")).to_contain_text("e2e-small")
+    assert _choose(page, path).startswith("e2e-small: 60×60 m, 4 sites, team 1/2/3")
     form.get_by_label("Seed").fill("9")
     form.get_by_role("button", name="Start mission").click()
     expect(page).to_have_url(re.compile(r"#/live/\d+$"), timeout=10_000)
@@ -276,25 +275,33 @@ def test_start_mission_from_an_uploaded_toml_scenario(
         api.post(f"/missions/{mission_id}/stop")
 
 
-TOML_CASES = [
-    SCENARIO_TOML,
-    'name = "c"\n[[craters]]\nx = 10\ny = 20.5\nr = 3\n\n[[craters]]\nx = 70\ny = 1e1\nr = 2_0\n',
-    "crater_radius = [ 2.0,\n  5.0, ]  # trailing comma\nplant = [50, 40]\n"
-    "team = { scouts = 3, haulers = 4 }\n",
-    "[bus]\nloss = 0.1\nlatency_s = +0.5\n'quoted key' = 'C:\\dir'\n\"esc\" = \"a\\tb\\u00e9\"\n"
-    "speeds.scout = 1.5\n",
-]
+def _choose(page: Page, path: Path) -> str:
+    """Choose a scenario file in the start form; the server's reading of it, as shown."""
+    form = page.locator("#start-form")
+    with page.expect_response(lambda r: r.url.endswith("/api/scenarios/parse")) as parsed:
+        form.get_by_label("Scenario file").set_input_files(str(path))
+    assert parsed.value.request.post_data_json["text"] == path.read_text()
+    summary = page.locator("#scenario-summary")
+    expect(summary).not_to_be_empty()
+    return summary.inner_text()
 
 
-def test_the_dashboard_reads_toml_like_tomllib(page: Page) -> None:
-    import tomllib
-
-    page.goto("/")
-    for text in TOML_CASES:
-        got = page.evaluate("async (text) => (await import('/js/toml.js')).parseToml(text)", text)
-        assert got == tomllib.loads(text), text
-    err = page.evaluate(
-        "async () => { try { (await import('/js/toml.js')).parseToml('a = 1\\na = 2'); }"
-        " catch (e) { return e.message; } }"
-    )
-    assert "line 2" in err and "duplicate" in err
+def test_scenario_files_are_read_by_the_server(operator: Page, tmp_path: Path) -> None:
+    """The form sends the file's text to POST /api/scenarios/parse (tomllib or json there)
+    and shows its errors naming the line or the field; nothing starts."""
+    page = operator
+    page.goto("/#/missions")
+    page.get_by_label("Upload a file (.json or .toml)").check()
+    bad_syntax = tmp_path / "broken.toml"
+    bad_syntax.write_text('name = "x"\nwidth = \n')
+    text = _choose(page, bad_syntax)
+    assert text.startswith("Cannot read broken.toml: ") and "line 2" in text, text
+    bad_field = tmp_path / "negative.toml"
+    bad_field.write_text("[team]\nhaulers = -1\n")
+    assert "scenario.team.haulers" in _choose(page, bad_field)
+    page.locator("#start-form").get_by_role("button", name="Start mission").click()
+    expect(page.locator("#start-error")).to_contain_text("negative.toml is not a scenario")
+    assert page.url.endswith("#/missions")
+    as_json = tmp_path / "small.json"
+    as_json.write_text('{"name": "as-json", "sites": 3, "minerals": 6}')
+    assert _choose(page, as_json).startswith("as-json: 100×100 m, 3 sites, team 2/4/6")
