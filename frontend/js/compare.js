@@ -33,7 +33,7 @@ export class ComparePage {
     this.touched = false;
     this.sweeps = new SweepPanel({
       onPick: (detail) => {
-        this.sweep = detail ? detail.runs || [] : null;
+        this.sweep = detail ? detail.runs : null;
         this.sweepId = detail ? detail.id : null;
         this.draw();
       },
@@ -57,11 +57,10 @@ export class ComparePage {
   async show() {
     try {
       const data = await get(`/missions${qs({ status: "completed", limit: 200 })}`);
-      this.missions = Array.isArray(data) ? data : data.items || [];
+      this.missions = data.items;
     } catch {
       this.missions = [];
     }
-    for (const m of this.missions) if (m.metrics) this.metrics.set(m.id, m.metrics);
     if (!this.touched) for (const m of this.missions) this.selected.add(m.id); // all, until the user picks
     this.renderList();
     this.sweeps.show();
@@ -98,7 +97,7 @@ export class ComparePage {
         h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
         h("td", {}, policyLabel(m.policy)),
         h("td", { class: "num" }, m.seed),
-        h("td", { class: "num" }, fmt((m.metrics || this.metrics.get(m.id))?.makespan_s, 0)),
+        h("td", { class: "num" }, fmt(this.metrics.get(m.id)?.makespan_s, 0)),
       ),
     );
     if (!rows.length) rows.push(h("tr", {}, h("td", { colspan: 5, class: "muted" }, "No completed missions yet.")));
@@ -111,7 +110,7 @@ export class ComparePage {
       // a few at a time: a long history must not flood the server
       await Promise.all(
         missing.slice(i, i + 8).map(async (id) => {
-          const metrics = await missionMetrics(id, "completed");
+          const metrics = await missionMetrics(id);
           if (metrics) this.metrics.set(id, metrics);
         }),
       );

@@ -22,9 +22,8 @@ export class AuctionFeed {
     this._count();
   }
 
-  /** Insert or update one auction record (the full record, as the API sends it). */
+  /** Insert or update one auction record (AuctionRead: REST, the stream and snapshots alike). */
   upsert(rec, { flash = true } = {}) {
-    if (!rec || !rec.id) return;
     const old = this.records.get(rec.id);
     this.records.set(rec.id, rec);
     const card = this._card(rec);
@@ -32,7 +31,7 @@ export class AuctionFeed {
     if (prev) prev.replaceWith(card);
     else this.list.prepend(card);
     this.cards.set(rec.id, card);
-    if (flash && (!old || old.status !== rec.status || (old.bids || []).length !== (rec.bids || []).length)) {
+    if (flash && (!old || old.status !== rec.status || old.bids.length !== rec.bids.length)) {
       card.classList.add("flash");
     }
     while (this.list.children.length > MAX_CARDS) {
@@ -79,14 +78,14 @@ export class AuctionFeed {
   }
 
   _card(r) {
-    const loc = r.location ? `(${fmt(r.location[0])}, ${fmt(r.location[1])})` : "";
+    const loc = `(${fmt(r.location[0])}, ${fmt(r.location[1])})`;
     const openFor = r.status === "open" ? `open ${fmt(Math.max(0, this.now - r.opened_at), 1)} s` : r.closed_at !== null && r.closed_at !== undefined ? `${fmt(r.closed_at - r.opened_at, 1)} s` : r.status;
-    const awards = r.awards || [];
+    const awards = r.awards;
     const lastAccepted = awards.find((a) => a.outcome === "accepted");
     const winner = r.allocated_to || lastAccepted?.winner;
     // a re-announced auction collects a new round of bids each time: show the latest round
-    const round = Math.max(0, ...(r.bids || []).map((b) => b.round ?? 0));
-    const bids = (r.bids || []).filter((b) => (b.round ?? 0) === round).map((b) =>
+    const round = Math.max(0, ...r.bids.map((b) => b.round));
+    const bids = r.bids.filter((b) => b.round === round).map((b) =>
       h(
         "span",
         { class: `bid${b.utility === null ? " inf" : ""}${b.bidder === winner ? " win" : ""}`, dataset: { bidder: b.bidder } },
@@ -102,9 +101,9 @@ export class AuctionFeed {
           status: r.status,
           auctioneer: r.auctioneer,
           taskType: r.task_type,
-          taskId: r.task_id || "",
-          reauctionOf: r.reauction_of || "",
-          location: r.location ? r.location.join(",") : "",
+          taskId: r.task_id ?? "",
+          reauctionOf: r.reauction_of ?? "",
+          location: r.location.join(","),
           openedAt: r.opened_at,
           winner: winner || "",
         },

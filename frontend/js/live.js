@@ -8,18 +8,17 @@ import { MapView } from "./mapview.js";
 import { AuctionFeed } from "./feed.js";
 import { RobotTable } from "./robots.js";
 import { LiveCharts } from "./livecharts.js";
-import { bindControls } from "./controls.js";
-import { robotType } from "./palette.js";
+import { Controls } from "./controls.js";
 import { ENDED, LIVE, MissionStatus } from "./status.js";
 
-const DETAIL_MS = 1000;
+const DETAIL_MS = 1000; // robot list (paths, tasks, distance) refresh while the stream runs
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
 
 function pick(obj, keys) {
   const out = {};
   for (const k of keys) if (k in obj) out[k] = obj[k];
   return out;
-} // robot list (paths, tasks, distance) refresh while the stream runs
+}
 
 export class LiveView {
   constructor() {
@@ -28,6 +27,7 @@ export class LiveView {
     this.retry = null;
     this.poll = null;
     this.state = this._empty();
+    // the parts below know this view only through these callbacks
     this.map = new MapView($("#map"), {
       onPick: (x, y) => this.controls.pick(x, y),
       onCursor: (x, y) => this._hover(x, y),
@@ -36,9 +36,25 @@ export class LiveView {
     this.table = new RobotTable($("#robot-table tbody"), $("#robot-count"), {
       onAction: (name, action) => this.controls.robotAction(name, action),
     });
-    this.charts = new LiveCharts(this);
-    this.controls = bindControls(this);
-    this.status = new MissionStatus(this);
+    this.charts = new LiveCharts({ openTimes: () => this.feed.openTimes() });
+    this.status = new MissionStatus({
+      missionId: () => this.id,
+      onControls: (operator, live) => {
+        this.table.setControl(operator, !live);
+        if (!live) this.controls.closePick();
+      },
+      onEnded: (simTime) => {
+        this.state.t = simTime;
+        $("#live-time").textContent = clock(simTime);
+      },
+    });
+    this.controls = new Controls({
+      mission: () => ({ id: this.id, status: this.status.status, policy: this.status.policy, speed: this.status.speed, map: this.state.map }),
+      onStatus: (m) => this.status.set(m),
+      onRobotsChanged: () => this._refreshDetail(),
+      showPick: (point) => this.map.setPick(point),
+      toScreen: (x, y) => this.map.toScreen(x, y),
+    });
     $("#toggle-truth").addEventListener("change", (e) => this.map.setOption("truth", e.target.checked));
     $("#toggle-paths").addEventListener("change", (e) => this.map.setOption("paths", e.target.checked));
     $("#toggle-labels").addEventListener("change", (e) => this.map.setOption("labels", e.target.checked));
@@ -50,9 +66,7 @@ export class LiveView {
   _empty() {
     return {
       mission: null,
-      status: "",
-      policy: "",
-      speed: null,
+      map: null,
       t: 0,
       frames: 0,
       lastFrame: null,
@@ -71,14 +85,9 @@ export class LiveView {
       return;
     }
     let text = `x ${fmt(x)}  y ${fmt(y)}`;
-    const reach = 12 / this.map.view.scale; // 12 px in metres
-    let best = null;
-    for (const p of this.map.poses().values()) {
-      const d = Math.hypot(p.x - x, p.y - y);
-      if (d < reach && (!best || d < best.d)) best = { d, p };
-    }
-    if (best) {
-      const r = { ...(this.state.detail.get(best.p.name) || {}), ...best.p };
+    const pose = this.map.robotAt(x, y);
+    if (pose) {
+      const r = { ...this.state.detail.get(pose.name), ...pose };
       text += ` · ${r.name} ${r.state}${r.task ? ` · ${r.task}` : ""}${r.load ? ` · load ${r.load}` : ""}`;
     }
     out.textContent = text;
@@ -86,12 +95,12 @@ export class LiveView {
 
   /** Ended for good (completed, stopped, stalled, …): shown from its record. */
   get finished() {
-    return ENDED.has(this.state.status);
+    return ENDED.has(this.status.status);
   }
 
   /** Running or paused: the only states in which controls work. */
   get live() {
-    return LIVE.has(this.state.status);
+    return LIVE.has(this.status.status);
   }
 
   /** Show mission `id` (or nothing), reconnecting the stream. */
@@ -103,12 +112,12 @@ export class LiveView {
     $("#live").hidden = !id;
     if (!id) return;
     this.state = this._empty();
-    this._status({ error: null });
+    this.status.reset();
+    this.status.set({});
     this.feed.reset();
     this.table.reset();
     this.charts.reset();
     $("#live-mission-id").textContent = id;
-    this.map.fitted = false;
     this._connect();
     this._loadHistory();
     this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
@@ -177,41 +186,42 @@ export class LiveView {
       case "event":
         return this._event(msg.event);
       case "status":
-        this._status(msg);
+        this.status.set(msg);
         return ENDED.has(msg.status) ? this.status.settle() : undefined;
       default:
         return undefined;
     }
   }
 
+  /** {mission: MissionRead, map: world map, state: Mission.snapshot() or null}. */
   _snapshot(msg) {
-    const snap = msg.state || {};
-    this.state.mission = msg.mission || this.state.mission;
+    const m = msg.mission;
+    // `state` is null only when the server crashed before storing one: nothing at the record's time
+    const snap = msg.state ?? { t: m.sim_time, robots: [], sites: [], dropped: [], auctions: [], counters: {}, scanned: null };
+    this.state.mission = m;
     if (msg.map) this.map.setMap(msg.map);
     this.state.map = msg.map;
-    this.map.setSites(snap.sites || []);
-    this.map.setDropped(snap.dropped || []);
-    for (const a of snap.auctions || []) this.feed.upsert(a, { flash: false });
-    this._setDetail(snap.robots || []);
+    this.map.setSites(snap.sites);
+    this.map.setDropped(snap.dropped);
+    for (const a of snap.auctions) this.feed.upsert(a, { flash: false });
+    this._setDetail(snap.robots);
     // the record's status, never the engine's (a stored state says "running" after a stop
     // or a restart); the record's policy is the current one
-    const m = msg.mission || {};
-    this._status({ status: m.status, policy: m.policy ?? snap.policy, speed: m.speed, error: m.error ?? null });
-    this._frame({ ...snap, t: snap.t ?? m.sim_time, type: "frame" }, { snap: true });
+    this.status.set({ status: m.status, policy: m.policy, speed: m.speed, error: m.error });
+    this._frame(snap, { snap: true });
   }
 
   _frame(f, { snap = false } = {}) {
     const s = this.state;
-    s.t = f.t ?? s.t;
+    s.t = f.t;
     s.frames += 1;
     s.lastFrame = f;
-    if (f.counters) s.counters = f.counters;
-    const robots = f.robots || [];
+    s.counters = f.counters;
+    const robots = f.robots;
     // keep only the per-frame fields: task, distance and path come from the robot list
     for (const r of robots) s.robots.set(r.name, pick(r, FRAME_FIELDS));
     for (const name of [...s.robots.keys()]) if (!robots.some((r) => r.name === name)) s.robots.delete(name);
-    const typed = robots.map((r) => ({ ...r, type: s.detail.get(r.name)?.type || robotType(r) }));
-    this.map.setRobots(typed, { snap });
+    this.map.setRobots(robots, { snap });
     if (f.scanned) this.map.setScanned(f.scanned);
     const canvas = $("#map");
     canvas.dataset.robotCount = String(robots.length);
@@ -219,15 +229,15 @@ export class LiveView {
     $("#live-time").textContent = clock(s.t);
     this.feed.tick(s.t);
     this.map.setOpenAuctions(this.feed.open());
-    this.table.update([...s.robots.values()].map((r) => ({ ...(s.detail.get(r.name) || {}), ...r })));
+    this.table.update([...s.robots.values()].map((r) => ({ ...s.detail.get(r.name), ...r })));
     this._counters(f);
-    this.charts.onFrame(s);
+    this.charts.onFrame({ t: s.t, counters: s.counters });
   }
 
   _counters(f) {
-    const c = f.counters || {};
+    const c = f.counters; // {} until the first frame of a mission stored without a state
     const grid = this.state.map?.grid;
-    const cells = f.cells_total ?? (grid ? grid.cols * grid.rows : null);
+    const cells = grid ? grid.cols * grid.rows : null;
     const items = [
       ["sites", `${c.sites_found ?? "–"}/${c.sites_total ?? "–"}`],
       ["minerals", `${c.minerals_delivered ?? "–"}/${c.minerals_total ?? "–"}`],
@@ -244,24 +254,24 @@ export class LiveView {
     }
   }
 
+  /** {seq, t, kind, data}: the engine's event (data as docs/engine-api.md lists it). */
   _event(ev) {
-    if (!ev) return;
-    const d = ev.data || {};
+    const d = ev.data;
     this.state.events.push(ev);
     if (this.state.events.length > 500) this.state.events.splice(0, 250);
     switch (ev.kind) {
       case "site_found":
       case "dug":
-        if (d.site || d.site_id) this._siteFromEvent(ev.kind, d);
+        this._siteEvent(ev.kind, d);
         break;
       case "mineral_dropped":
-        this.map.setDropped([...this.map.scene.dropped, { x: d.x, y: d.y }]);
+        this.map.addDropped(d.x, d.y);
         break;
       case "mineral_recovered":
-        this.map.setDropped(this.map.scene.dropped.filter((p) => Math.hypot(p.x - d.x, p.y - d.y) > 0.05));
+        this.map.removeDropped(d.x, d.y);
         break;
-      case "policy_changed":
-        this._status({ policy: d.policy ?? d.to ?? d.new });
+      case "policy_changed": // {old, new}
+        this.status.set({ policy: d.new });
         this._refreshDetail();
         break;
       case "robot_added":
@@ -276,23 +286,13 @@ export class LiveView {
     }
   }
 
-  _siteFromEvent(kind, d) {
-    const id = d.site_id || (typeof d.site === "string" ? d.site : d.site?.id);
-    const known = this.map.scene.sites.get(id) || {};
-    const site = { id, found: true };
-    const truth = (this.state.map?.sites || []).find((s) => s.id === id);
-    site.x = d.x ?? d.site?.x ?? known.x ?? truth?.x;
-    site.y = d.y ?? d.site?.y ?? known.y ?? truth?.y;
-    site.total = d.total ?? d.minerals ?? known.total ?? truth?.minerals;
-    if (d.remaining !== undefined) site.remaining = d.remaining;
-    else if (kind === "dug") site.remaining = Math.max(0, (known.remaining ?? site.total ?? 1) - 1);
-    else site.remaining = known.remaining ?? site.total;
-    if (site.x !== undefined) this.map.setSites([site]);
-  }
-
-  /** The server said so (snapshot record, status message, a control's answer). */
-  _status(m) {
-    this.status.set(m);
+  /** site_found {site, by, x, y} and dug {robot, site, remaining}: the site as the map shows it
+   * (known from the snapshot, which lists every site, or else from the ground-truth map). */
+  _siteEvent(kind, d) {
+    const truth = this.state.map?.sites.find((s) => s.id === d.site);
+    const known = this.map.site(d.site) ?? (truth && { id: truth.id, x: truth.x, y: truth.y, total: truth.minerals, remaining: truth.minerals });
+    if (!known) return;
+    this.map.setSites([{ ...known, found: true, ...(kind === "dug" ? { remaining: d.remaining } : { x: d.x, y: d.y }) }]);
   }
 
   /** Enable or disable every control for the current token and mission state. */
@@ -314,21 +314,20 @@ export class LiveView {
   _poseFromDetail(list) {
     const s = this.state;
     // while frames flow they are fresher, and extra poses would upset the glide timing
-    if (!list.length || !s.map || performance.now() - this.map.lastFrameWall < 500) return;
+    if (!list.length || !s.map || this.map.framesFlowing()) return;
     for (const r of list) s.robots.set(r.name, pick(r, FRAME_FIELDS));
     const robots = [...s.robots.values()];
     this.map.setRobots(robots, { polled: true });
     $("#map").dataset.robotCount = String(robots.length);
-    this.table.update(robots.map((r) => ({ ...(s.detail.get(r.name) || {}), ...r })));
+    this.table.update(robots.map((r) => ({ ...s.detail.get(r.name), ...r })));
   }
 
   async _refreshDetail() {
     const id = this.id;
     if (!id || document.hidden) return;
     try {
-      const data = await get(`/missions/${encodeURIComponent(id)}/robots`);
+      const list = await get(`/missions/${encodeURIComponent(id)}/robots`); // [RobotRead]
       if (id !== this.id) return;
-      const list = Array.isArray(data) ? data : data.items || data.robots || [];
       this._setDetail(list);
       this._poseFromDetail(list);
       if (this.finished) {
@@ -346,17 +345,17 @@ export class LiveView {
       // the API lists auctions oldest first: read the total, then the newest page
       const path = `/missions/${encodeURIComponent(id)}/auctions`;
       const head = await get(`${path}${qs({ limit: 1 })}`);
-      const offset = Math.max(0, (head.total ?? 0) - 200);
+      const offset = Math.max(0, head.total - 200);
       const data = offset ? await get(`${path}${qs({ limit: 200, offset })}`) : await get(`${path}${qs({ limit: 200 })}`);
       if (id !== this.id) return;
-      this.feed.load(Array.isArray(data) ? data : data.items || []);
+      this.feed.load(data.items);
     } catch {
       /* the stream carries new auctions anyway */
     }
     try {
       const data = await get(`/missions/${encodeURIComponent(id)}/events${qs({ kind: "delivered", limit: 1000 })}`);
       if (id !== this.id) return;
-      this.charts.loadDeliveries(Array.isArray(data) ? data : data.items || []);
+      this.charts.loadDeliveries(data.items);
     } catch {
       /* the chart fills from frames */
     }
@@ -370,10 +369,10 @@ export class LiveView {
         return view.id;
       },
       get status() {
-        return view.state.status;
+        return view.status.status;
       },
       get policy() {
-        return view.state.policy;
+        return view.status.policy;
       },
       get frames() {
         return view.state.frames;

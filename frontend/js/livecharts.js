@@ -15,8 +15,9 @@ function timeFmt(range) {
 }
 
 export class LiveCharts {
-  constructor(view) {
-    this.view = view;
+  /** openTimes(): closed auctions' open times by kind ({kind: [seconds]}), read when drawing. */
+  constructor({ openTimes }) {
+    this.openTimes = openTimes;
     this.reset();
     new ResizeObserver(() => this.draw()).observe($(".charts"));
   }
@@ -30,14 +31,15 @@ export class LiveCharts {
     this.drawnAt = 0;
   }
 
-  onFrame(state) {
-    this.t = state.t;
-    const c = state.counters || {};
+  /** A frame: its simulation time and the engine's counters. */
+  onFrame({ t, counters }) {
+    this.t = t;
+    const c = counters;
     if (c.minerals_total !== undefined) this.total = c.minerals_total;
     const v = c.minerals_delivered;
     if (v !== undefined && v !== this.last) {
-      if (this.last === null && v > 0 && !this.delivered.length) this.delivered.push([state.t, v]);
-      else if (this.last !== null) this.delivered.push([state.t, v]);
+      if (this.last === null && v > 0 && !this.delivered.length) this.delivered.push([t, v]);
+      else if (this.last !== null) this.delivered.push([t, v]);
       this.last = v;
     }
     if (performance.now() - this.drawnAt > REDRAW_MS) this.draw();
@@ -56,7 +58,7 @@ export class LiveCharts {
   loadDeliveries(events) {
     if (!events.length) return;
     const sorted = [...events].sort((a, b) => a.t - b.t || a.seq - b.seq);
-    this.delivered = sorted.map((e, i) => [e.t, e.data?.delivered ?? i + 1]);
+    this.delivered = sorted.map((e) => [e.t, e.data.delivered]);
     this.last = this.delivered[this.delivered.length - 1][1];
     this.draw();
   }
@@ -77,7 +79,7 @@ export class LiveCharts {
       types.map((t) => ({ label: t, bars: [{ name: t, value: this.distance[t], colour: TYPE_COLOUR[t] }] })),
       { unit: " m" },
     );
-    const times = this.view.feed.openTimes();
+    const times = this.openTimes();
     const kinds = ["scout_excavator", "excavator_hauler", "operator"].filter((k) => k in times || k !== "operator");
     stripChart(
       $("#chart-auctions"),

@@ -51,7 +51,7 @@ export function drawScene(ctx, mv, poses) {
   drawScale(ctx, mv);
 
   // craters
-  for (const o of map.obstacles || []) {
+  for (const o of map.obstacles) {
     const [cx, cy] = P(o.x, o.y);
     ctx.beginPath();
     ctx.arc(cx, cy, o.r * s, 0, 2 * Math.PI);
@@ -143,7 +143,7 @@ function drawSites(ctx, mv, P, s) {
   const { scene, map } = mv;
   const r = Math.max(5, 1.2 * s);
   if (scene.options.truth) {
-    for (const site of map.sites || []) {
+    for (const site of map.sites) {
       const known = scene.sites.get(site.id);
       if (known && known.found) continue;
       const [sx, sy] = P(site.x, site.y);

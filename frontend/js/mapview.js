@@ -90,7 +90,21 @@ export class MapView {
 
   setDropped(points) {
     this.dirty = true;
-    this.scene.dropped = points || [];
+    this.scene.dropped = points;
+  }
+
+  /** A mineral dropped at (x, y) (`mineral_dropped`), or picked up from there (`mineral_recovered`). */
+  addDropped(x, y) {
+    this.setDropped([...this.scene.dropped, { x, y }]);
+  }
+
+  removeDropped(x, y) {
+    this.setDropped(this.scene.dropped.filter((p) => Math.hypot(p.x - x, p.y - y) > 0.05));
+  }
+
+  /** A site as the map shows it ({id, x, y, found, remaining, total}), or undefined. */
+  site(id) {
+    return this.scene.sites.get(id);
   }
 
   setOpenAuctions(list) {
@@ -284,6 +298,22 @@ export class MapView {
     const out = new Map();
     for (const [name, r] of this.scene.robots) out.set(name, { ...r, ...(this._pose(name, now) || {}) });
     return out;
+  }
+
+  /** The drawn robot nearest map point (x, y) within `px` screen pixels, or null. */
+  robotAt(x, y, px = 12) {
+    const reach = px / this.view.scale;
+    let best = null;
+    for (const p of this.poses().values()) {
+      const d = Math.hypot(p.x - x, p.y - y);
+      if (d < reach && (!best || d < best.d)) best = { d, p };
+    }
+    return best && best.p;
+  }
+
+  /** Whether frames arrived in the last `ms` milliseconds (they are fresher than a poll). */
+  framesFlowing(ms = 500) {
+    return performance.now() - this.lastFrameWall < ms;
   }
 
   /** Whether anything on the map moves by itself now (gliding robots, pulses, dashes). */

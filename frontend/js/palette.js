@@ -13,10 +13,9 @@ export const SITE_COLOUR = "#f0e442";
 export const FAILED_COLOUR = "#d55e00";
 export const PLANT_COLOUR = "#e6edf3";
 
+/** A robot's type: every robot dict the server sends (frames, snapshot, robot list) has it. */
 export function robotType(robot) {
-  if (robot.type) return robot.type;
-  const base = String(robot.name || "").replace(/-\d+$/, "");
-  return base in TYPE_COLOUR ? base : "other";
+  return robot.type in TYPE_COLOUR ? robot.type : "other";
 }
 
 /**

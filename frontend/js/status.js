@@ -6,7 +6,7 @@
 // the service's states (paused, interrupted), so a frame would overwrite the truth with a
 // guess. This module shows the status (badge, notice, Resume) and enables the controls.
 
-import { $, $$, clock, toast } from "./dom.js";
+import { $, $$, toast } from "./dom.js";
 import { get, isOperator, post } from "./api.js";
 import { policyLabel } from "./policies.js";
 
@@ -43,36 +43,45 @@ const SETTLE_TRIES = 20;
 const SETTLE_MS = 250;
 
 export class MissionStatus {
-  constructor(view) {
-    this.view = view;
+  /**
+   * missionId(): the mission shown (or null); onControls(operator, live): enable what works
+   * now (the robot list's buttons, the task form); onEnded(simTime): the stored ending's time.
+   */
+  constructor({ missionId, onControls, onEnded }) {
+    this.missionId = missionId;
+    this.onControls = onControls;
+    this.onEnded = onEnded;
+    this.reset();
     this.resuming = false;
-    this.error = null;
     this.settling = null;
     $("#resume-button").addEventListener("click", () => this.resume());
   }
 
-  get status() {
-    return this.view.state.status;
+  /** Nothing known yet (another mission is being opened). */
+  reset() {
+    this.status = "";
+    this.policy = "";
+    this.speed = null;
+    this.error = null;
   }
 
   /** Apply what the server said: {status?, policy?, speed?, error?}. */
   set(m) {
-    const s = this.view.state;
-    if (m.status) s.status = m.status;
-    if (m.policy) s.policy = m.policy;
-    if (m.speed !== undefined && m.speed !== null) s.speed = m.speed;
+    if (m.status) this.status = m.status;
+    if (m.policy) this.policy = m.policy;
+    if (m.speed !== undefined && m.speed !== null) this.speed = m.speed;
     if (m.error !== undefined) this.error = m.error;
     const st = $("#live-status");
-    st.textContent = s.status || "…";
-    st.dataset.status = s.status;
+    st.textContent = this.status || "…";
+    st.dataset.status = this.status;
     const pol = $("#live-policy");
-    pol.dataset.policy = s.policy;
-    pol.title = `Current policy: ${policyLabel(s.policy)}`;
+    pol.dataset.policy = this.policy;
+    pol.title = `Current policy: ${policyLabel(this.policy)}`;
     const sel = $("#policy-select");
-    if (document.activeElement !== sel && s.policy) sel.value = s.policy;
-    const paused = s.status === "paused" || String(s.speed) === "0";
+    if (document.activeElement !== sel && this.policy) sel.value = this.policy;
+    const paused = this.status === "paused" || String(this.speed) === "0";
     for (const b of $$("[data-speed]")) {
-      const on = LIVE.has(s.status) && (paused ? b.dataset.speed === "0" : String(b.dataset.speed) === String(s.speed));
+      const on = LIVE.has(this.status) && (paused ? b.dataset.speed === "0" : String(b.dataset.speed) === String(this.speed));
       b.setAttribute("aria-pressed", on ? "true" : "false");
     }
     this.apply();
@@ -80,21 +89,20 @@ export class MissionStatus {
 
   /** Enable the controls that can work now: an operator's, on a live mission only. */
   apply() {
-    const view = this.view;
+    const id = this.missionId();
     const status = this.status;
     const live = LIVE.has(status);
-    const can = isOperator() && Boolean(view.id) && live;
+    const can = isOperator() && Boolean(id) && live;
     for (const el of $$("#live [data-control]")) {
       if (!el.closest("#robot-table") && el.id !== "resume-button") el.disabled = !can;
     }
-    view.table.setControl(isOperator(), !live);
-    if (!live) view.controls?.closePick();
+    this.onControls(isOperator(), live);
     const resume = $("#resume-button");
     resume.hidden = !(isOperator() && RESUMABLE.has(status));
     resume.disabled = resume.hidden || this.resuming;
     resume.textContent = this.resuming ? "Resuming…" : "Resume";
     const box = $("#live-notice");
-    const text = view.id ? notice(status, { operator: isOperator(), error: this.error }) : "";
+    const text = id ? notice(status, { operator: isOperator(), error: this.error }) : "";
     box.hidden = !text;
     box.dataset.status = status;
     if (box.textContent !== text) box.textContent = text;
@@ -102,20 +110,20 @@ export class MissionStatus {
 
   /** Rebuild an interrupted mission by replay on the server and continue it live. */
   async resume() {
-    const id = this.view.id;
+    const id = this.missionId();
     if (!id || this.resuming) return;
     this.resuming = true;
     this.apply();
     try {
       const m = await post(`/missions/${encodeURIComponent(id)}/resume`);
-      if (id === this.view.id) this.set({ status: m.status, policy: m.policy, speed: m.speed });
+      if (id === this.missionId()) this.set({ status: m.status, policy: m.policy, speed: m.speed });
       toast(`Mission ${id} resumed`);
     } catch (err) {
       toast(`Resume: ${err.message}`, "error");
       this.settle(() => true); // whatever happened, show what the record now says
     } finally {
       this.resuming = false;
-      if (id === this.view.id) this.apply();
+      if (id === this.missionId()) this.apply();
     }
   }
 
@@ -125,27 +133,24 @@ export class MissionStatus {
    * `ready(record)` says when the record is there (by default: it holds an ending).
    */
   settle(ready = (m) => ENDED.has(m.status)) {
-    const id = this.view.id;
+    const id = this.missionId();
     if (!id || this.settling === id) return;
     this.settling = id;
     const path = `/missions/${encodeURIComponent(id)}`;
     const attempt = async (left) => {
-      if (id !== this.view.id) return;
+      if (id !== this.missionId()) return;
       let m = null;
       try {
         m = await get(path);
       } catch {
         /* retried below */
       }
-      if (id !== this.view.id) return;
+      if (id !== this.missionId()) return;
       if ((m && ready(m)) || left <= 0) {
         this.settling = null;
         if (!m) return;
-        this.set({ status: m.status, policy: m.policy, error: m.error ?? null });
-        if (ENDED.has(m.status) && Number.isFinite(m.sim_time)) {
-          this.view.state.t = m.sim_time;
-          $("#live-time").textContent = clock(m.sim_time);
-        }
+        this.set({ status: m.status, policy: m.policy, error: m.error });
+        if (ENDED.has(m.status)) this.onEnded(m.sim_time);
         return;
       }
       setTimeout(() => attempt(left - 1), SETTLE_MS);

@@ -85,7 +85,7 @@ export class SweepPanel {
   async refresh() {
     try {
       const data = await get("/sweeps?limit=100");
-      this.sweeps = data.items || [];
+      this.sweeps = data.items;
     } catch {
       this.sweeps = [];
     }
@@ -142,7 +142,7 @@ export class SweepPanel {
 
   renderFigures(detail) {
     const box = $("#sweep-figures");
-    const figures = detail?.figures || [];
+    const figures = detail ? detail.figures : [];
     box.hidden = !figures.length;
     box.dataset.sweep = detail?.id ?? "";
     $("#sweep-figures-title").textContent = detail ? `Sweep ${detail.id}: ${detail.scenario_name}, ${detail.n_seeds} seeds` : "Sweep figures";
@@ -155,7 +155,7 @@ export class SweepPanel {
           { dataset: { figure: f.name } },
           h("figcaption", {}, f.title, " ", h("a", { href: f.svg, target: "_blank", rel: "noopener", class: "hint" }, "SVG")),
           img,
-          (f.verdict || []).map((v) => h("p", { class: "hint" }, v)),
+          f.verdict.map((v) => h("p", { class: "hint" }, v)),
         );
       }),
     );
