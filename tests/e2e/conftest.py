@@ -148,13 +148,19 @@ class Server:
         return httpx.Client(base_url=f"{self.url}/api", headers=AUTH, timeout=30)
 
 
-@pytest.fixture(scope="session")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    srv = Server(tmp_path_factory.mktemp("regolith-e2e")).start()
+def running_server(factory: pytest.TempPathFactory, name: str) -> Iterator[Server]:
+    """A server on a data folder of its own for as long as the fixture lives; its log is kept
+    in the test artifacts as NAME.log."""
+    srv = Server(factory.mktemp(f"regolith-{name}")).start()
     yield srv
     srv.stop()
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(srv.log, ARTIFACTS / "server.log")
+    shutil.copyfile(srv.log, ARTIFACTS / f"{name}.log")
+
+
+@pytest.fixture(scope="session")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    yield from running_server(tmp_path_factory, "server")
 
 
 @pytest.fixture

@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 from playwright.sync_api import Page, expect
 
-from tests.e2e.conftest import ARTIFACTS, Server
+from tests.e2e.conftest import ARTIFACTS, Server, running_server
 from tests.e2e.test_dashboard import Start, wait_for
 
 # every control that needs a live mission (Resume is the one thing an interrupted one takes)
@@ -30,11 +30,7 @@ LIVE_ONLY = [
 
 @pytest.fixture(scope="module")
 def own_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    srv = Server(tmp_path_factory.mktemp("regolith-e2e-restart")).start()
-    yield srv
-    srv.stop()
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    (ARTIFACTS / "server-restart.log").write_text(srv.log_text())
+    yield from running_server(tmp_path_factory, "server-restart")
 
 
 def _start(srv: Server, **body: Any) -> int:
