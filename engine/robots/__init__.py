@@ -1,6 +1,7 @@
 """The robot types. Each is a simpy process over the shared protocol roles in `base`."""
 
-from engine.robots.base import Assignment, Robot
+from engine.robots.base import Robot
+from engine.robots.core import Assignment
 from engine.robots.excavator import Excavator
 from engine.robots.hauler import Hauler
 from engine.robots.operator import OPERATOR, Operator

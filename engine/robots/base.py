@@ -7,15 +7,12 @@ behaviour (scan, dig, haul) lives in a subclass as a simpy process; the protocol
 
 from __future__ import annotations
 
-from collections import deque
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
 from engine.auction_house import AuctionHouse
-from engine.auction_rules import Allocation, Duties
-from engine.geometry import Point, path_length, point_along, remaining_path
+from engine.auction_rules import Allocation
 from engine.messages import (
     Ack,
     Announce,
@@ -31,93 +28,19 @@ from engine.messages import (
     Revoke,
     Takeover,
     TaskDone,
-    TaskType,
 )
-from engine.planning import Path
-from engine.policies import OpenAuction, PendingAward, coalition_partner
+from engine.policies import OpenAuction
 from engine.robots.bidder import Bidder
+from engine.robots.core import Assignment
 from engine.robots.recovery import Recovery
 
 if TYPE_CHECKING:
-    from engine.context import MissionContext
-
-DONE_MEMORY = 8
-"""How many finished task ids a heartbeat repeats, for auctioneers that missed a TaskDone."""
-
-
-@dataclass(frozen=True, slots=True)
-class Assignment:
-    """A task this robot won and was confirmed for."""
-
-    auction_id: str
-    auctioneer: str
-    task_type: TaskType
-    task_id: str
-    location: Point
-    search_path: tuple[Point, ...] = ()
-
-
-@dataclass(slots=True)
-class Motion:
-    t0: float
-    path: Path
-    length: float
-    speed: float
+    pass
 
 
 class Robot(Bidder, Recovery):
-    rtype = "robot"
-    capability: TaskType | None = None
-
-    def __init__(self, name: str, ctx: MissionContext, pos: Point, speed: float) -> None:
-        self.name = name
-        self.ctx = ctx
-        self.env = ctx.env
-        self.pos = pos
-        self.heading = 0.0
-        self.speed = speed
-        self.state = "idle"
-        self.alive = True
-        self.enabled = True
-        self.leaving = False
-        self.distance = 0.0
-        self.motion: Motion | None = None
-        self.partner = coalition_partner(name)  # Policy 2's pairing rule, fixed by the name
-        self.house = AuctionHouse(name, ctx, self._on_allocated)
-        self.current: Assignment | None = None
-        self.queue: deque[Assignment] = deque()
-        self._procs: list[Any] = []
-        self._wake_event: simpy.Event | None = None
-        self._wake_pending = False
-        self._life_proc: Any = None
-        self._probing: set[str] = set()
-        # Memory that survives a failure: what others were responsible for (for adoption),
-        # whose duties I took over, tasks I finished, and my own duties while I am down.
-        self.peer_open: dict[str, dict[str, OpenAuction]] = {}
-        self.peer_alloc: dict[str, dict[str, Allocation]] = {}
-        self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
-        self.adopted_tasks: dict[str, tuple[str, ...]] = {}  # failed peer -> its tasks I hold
-        self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
-        self.done_ids: deque[str] = deque(maxlen=DONE_MEMORY)
-        self.completed: set[str] = set()  # tasks I finished for good
-        self.peers = {name: self.rtype}  # name -> type, from the roster, Hello and heartbeats
-        self.dormant = Duties()
-        self.rejoining = False
-        self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
-        self._reset_knowledge()
-        ctx.liveness.add(name)
-        ctx.bus.subscribe(name, self.on_message)
-
-    def _reset_knowledge(self) -> None:
-        self.open_auctions: dict[str, OpenAuction] = {}  # the ones I can serve
-        self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
-        self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
-        self.my_bids: dict[str, tuple[int, float]] = {}
-        self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
-        self.reserved: OpenAuction | None = None
-        self.pending_awards: list[PendingAward] = []
-        self.down: set[str] = set()
-        self.down_at: dict[str, float] = {}
+    """A robot: the core, the bidder and recovery roles, message handling, and the life cycle
+    of work, failure and return; scouts, excavators and haulers fill in `life` or `work`."""
 
     # --- lifecycle ----------------------------------------------------------------------
     def start(self, joined_late: bool = False) -> None:
@@ -132,12 +55,6 @@ class Robot(Bidder, Recovery):
     def wants_work(self) -> bool:
         """Hook: a scout with nothing to scan asks for a share of the search."""
         return False
-
-    def _spawn(self, gen: Any) -> None:
-        """Run a side process of this robot; it ends quietly when the robot fails."""
-        if len(self._procs) > 32:
-            self._procs = [p for p in self._procs if p.is_alive]
-        self._procs.append(self.env.process(_until_interrupted(gen)))
 
     def _life_guarded(self) -> Any:
         while True:
@@ -189,67 +106,6 @@ class Robot(Bidder, Recovery):
         except simpy.Interrupt:
             return
 
-    @property
-    def participating(self) -> bool:
-        return self.alive and self.enabled and not self.leaving
-
-    def wake(self) -> None:
-        """Nudge the behaviour to look at its situation again (a wake is never lost)."""
-        ev = self._wake_event
-        if ev is not None and not ev.triggered:
-            ev.succeed()
-        else:
-            self._wake_pending = True
-
-    def wait_for_wake(self) -> simpy.Event:
-        ev = self.env.event()
-        if self._wake_pending:
-            self._wake_pending = False
-            ev.succeed()
-        self._wake_event = ev
-        return ev
-
-    # --- motion -------------------------------------------------------------------------
-    def position(self, t: float | None = None) -> tuple[Point, float]:
-        m = self.motion
-        if m is None:
-            return self.pos, self.heading
-        t = self.env.now if t is None else t
-        return point_along(m.path, min(m.length, max(0.0, (t - m.t0) * m.speed)))
-
-    def remaining_route(self) -> list[Point]:
-        m = self.motion
-        if m is None:
-            return []
-        return remaining_path(m.path, min(m.length, (self.env.now - m.t0) * m.speed))
-
-    def drive(self, path: Path, report: bool = False) -> Any:
-        """Drive along a path at this robot's speed; interruptible only by failure. With
-        `report`, a heartbeat goes out as it sets off, saying where it is going (a hauler with
-        a mineral: if it fails on the way, its watcher searches that very route)."""
-        length = path_length(path)
-        if length <= 0.0:
-            self.pos = path[-1]
-            return
-        self.motion = Motion(float(self.env.now), path, length, self.speed)
-        if report:
-            self.heartbeat()
-        yield self.env.timeout(length / self.speed)
-        self._end_motion(length)
-
-    def _end_motion(self, travelled: float | None = None) -> None:
-        m = self.motion
-        if m is None:
-            return
-        if travelled is None:
-            travelled = min(m.length, (self.env.now - m.t0) * m.speed)
-        self.pos, self.heading = point_along(m.path, travelled)
-        self.distance += travelled
-        self.motion = None
-
-    def go_to(self, goal: Point) -> Any:
-        yield from self.drive(self.ctx.planner.plan(self.pos, goal))
-
     # --- messages -----------------------------------------------------------------------
     def on_message(self, msg: Message) -> None:
         if not self.alive:
@@ -299,37 +155,6 @@ class Robot(Bidder, Recovery):
             self.open_auctions[msg.auction_id] = info
             self._in_order = None
             self.consider_bids()
-
-    def forget_auction(self, auction_id: str) -> OpenAuction | None:
-        self.rounds.pop(auction_id, None)
-        info = self.open_auctions.pop(auction_id, None)
-        if info is not None:
-            self._in_order = None
-        return info
-
-    def auctions_in_order(self) -> list[OpenAuction]:
-        """Open auctions I can serve, by opening order, minus those of auctioneers I think down."""
-        if self._in_order is None:
-            self._in_order = sorted(
-                (a for a in self.open_auctions.values() if a.auctioneer not in self.down),
-                key=lambda a: a.order,
-            )
-        return self._in_order
-
-    def peer_type(self, name: str) -> str | None:
-        """What a peer is, as far as messages have told me (None: never heard of it)."""
-        rtype = self.peers.get(name)
-        if rtype is None:
-            hb = self.ctx.liveness.last_heartbeat(self.name, name)
-            if hb is not None:
-                rtype = self.peers[name] = hb.rtype
-        return rtype
-
-    def peers_of_type(self, rtype: str) -> list[str]:
-        """Every robot of this type I know of, me included, by name."""
-        for name in self.ctx.liveness.names:  # the senders whose heartbeats reach me
-            self.peer_type(name)
-        return sorted(n for n, t in self.peers.items() if t == rtype)
 
     def on_task_heard(self, info: OpenAuction) -> None:
         """Hook: any announcement (scouts learn of sites their peers found)."""
@@ -404,14 +229,7 @@ class Robot(Bidder, Recovery):
     def on_handoff_heard(self, msg: Handoff) -> None:
         """Hook: scouts track who scans which cells."""
 
-    def handoffs_received(self) -> tuple[str, ...]:
-        return ()
-
     # --- tasks --------------------------------------------------------------------------
-    def tasks_held(self) -> list[Assignment]:
-        """The task I work on and those queued behind it."""
-        return ([] if self.current is None else [self.current]) + list(self.queue)
-
     def assign(self, a: Assignment) -> None:
         self.queue.append(a)
         self.ctx.emit(
@@ -434,9 +252,6 @@ class Robot(Bidder, Recovery):
             TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)
         )
         self.consider_bids()
-
-    def _on_allocated(self, alloc: Allocation) -> None:
-        """Hook from the auction house when one of my auctions closes."""
 
     # --- operator-driven failures -------------------------------------------------------
     def fail(self) -> None:
@@ -486,13 +301,6 @@ class Robot(Bidder, Recovery):
         self.taken_back = set()
         self.start(joined_late=True)
         self._spawn(self.rejoin())
-
-
-def _until_interrupted(gen: Any) -> Any:
-    try:
-        yield from gen
-    except simpy.Interrupt:
-        return
 
 
 _HANDLERS: dict[type[Message], Any] = {

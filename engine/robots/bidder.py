@@ -5,50 +5,20 @@ until the auctioneer's Close confirms it. Split from `base` so each file holds o
 from __future__ import annotations
 
 import math
-from collections import deque
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import simpy
 
 from engine.bidding import BidMemory
 from engine.geometry import Point, path_length
-from engine.messages import Ack, Award, Bid, TaskType
+from engine.messages import Ack, Award, Bid
 from engine.planning import PlanningError
 from engine.policies import OpenAuction, PendingAward
-
-if TYPE_CHECKING:
-    from engine.context import MissionContext
-    from engine.robots.base import Assignment
+from engine.robots.core import RobotCore
 
 
-class Bidder:
-    """Mixed into `Robot`; the names below are the robot's, declared for the type checker."""
-
-    if TYPE_CHECKING:
-        name: str
-        rtype: str
-        capability: TaskType | None
-        partner: str | None
-        pos: Point
-        speed: float
-        ctx: MissionContext
-        env: simpy.Environment
-        down: set[str]
-        queue: deque[Assignment]
-        current: Assignment | None
-        reserved: OpenAuction | None
-        open_auctions: dict[str, OpenAuction]
-        rounds: dict[str, int]
-        my_bids: dict[str, tuple[int, float]]
-        pending_awards: list[PendingAward]
-        _bid_situation: tuple[object, ...]
-
-        @property
-        def participating(self) -> bool: ...
-        def auctions_in_order(self) -> list[OpenAuction]: ...
-        def _spawn(self, gen: Any) -> None: ...
-        def load(self) -> int: ...
-        def position(self, t: float | None = None) -> tuple[Point, float]: ...
+class Bidder(RobotCore):
+    """The bidder role of a robot."""
 
     def _on_award(self, msg: Award) -> None:
         if msg.winner != self.name:
@@ -128,11 +98,6 @@ class Bidder:
         """Paired with a live partner under a coalition policy (Policy 2)."""
         partner = self.partner
         return partner is not None and self.ctx.policy.coalitions() and self.peer_alive(partner)
-
-    def peer_alive(self, name: str) -> bool:
-        heard = self.ctx.liveness.last_heard(self.name, name)
-        timeout = self.ctx.scenario.protocol.failure_timeout_s
-        return name not in self.down and self.env.now - heard <= timeout
 
     def policy_changed(self) -> None:
         """A new policy may bid in other units or by other rules: look at everything afresh."""

@@ -11,7 +11,8 @@ from engine.context import NEAR
 from engine.geometry import Point, dist, path_length
 from engine.messages import Close
 from engine.planning import PlanningError
-from engine.robots.base import Assignment, Robot
+from engine.robots.base import Robot
+from engine.robots.core import Assignment
 
 if TYPE_CHECKING:
     from engine.context import SiteState

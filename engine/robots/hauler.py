@@ -9,7 +9,8 @@ import simpy
 from engine.context import NEAR
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
-from engine.robots.base import Assignment, Robot
+from engine.robots.base import Robot
+from engine.robots.core import Assignment
 
 if TYPE_CHECKING:
     from engine.robots.excavator import Excavator

@@ -10,58 +10,14 @@ from typing import TYPE_CHECKING, Any
 from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
 from engine.messages import Heartbeat, Holding, Leaving, Probe, Revoke, Takeover
 from engine.planning import PlanningError
+from engine.robots.core import RobotCore
 
 if TYPE_CHECKING:
-    import simpy
-
-    from engine.auction_house import AuctionHouse
-    from engine.context import MissionContext
-    from engine.geometry import Point
-    from engine.policies import OpenAuction
-    from engine.robots.base import Assignment
+    pass
 
 
-class Recovery:
-    """Mixed into `Robot`; the names below are the robot's, declared for the type checker."""
-
-    if TYPE_CHECKING:
-        name: str
-        rtype: str
-        ctx: MissionContext
-        env: simpy.Environment
-        house: AuctionHouse
-        state: str
-        down: set[str]
-        down_at: dict[str, float]
-        queue: deque[Assignment]
-        current: Assignment | None
-        reserved: OpenAuction | None
-        open_auctions: dict[str, OpenAuction]
-        peer_open: dict[str, dict[str, OpenAuction]]
-        peer_alloc: dict[str, dict[str, Allocation]]
-        adopted: dict[str, list[str]]
-        adopted_tasks: dict[str, tuple[str, ...]]
-        adopted_cells: dict[str, tuple[int, ...]]
-        done_ids: deque[str]
-        dormant: Duties
-        rejoining: bool
-        taken_back: set[str]
-        _in_order: list[OpenAuction] | None
-        _life_proc: Any
-        _probing: set[str]
-
-        @property
-        def participating(self) -> bool: ...
-        def position(self, t: float | None = None) -> tuple[Point, float]: ...
-        def remaining_route(self) -> list[Point]: ...
-        def handoffs_received(self) -> tuple[str, ...]: ...
-        def consider_bids(self) -> None: ...
-        def forget_auction(self, auction_id: str) -> OpenAuction | None: ...
-        def peer_alive(self, name: str) -> bool: ...
-        def _spawn(self, gen: Any) -> None: ...
-        def wake(self) -> None: ...
-        def peer_type(self, name: str) -> str | None: ...
-        def peers_of_type(self, rtype: str) -> list[str]: ...
+class Recovery(RobotCore):
+    """The recovery role of a robot."""
 
     # --- liveness, monitoring, adoption ---------------------------------------------------
     def heartbeat(self) -> None:
@@ -89,12 +45,6 @@ class Recovery:
                 received=self.handoffs_received(),
             )
         )
-
-    def progress(self) -> int:
-        return 0
-
-    def load(self) -> int:
-        return 0
 
     def check_peers(self) -> None:
         proto = self.ctx.scenario.protocol

@@ -8,7 +8,8 @@ from engine.geometry import Point, dist, first_entry
 from engine.messages import Handoff, Hello, Takeover
 from engine.planning import Path, PlanningError
 from engine.policies import OpenAuction
-from engine.robots.base import Motion, Robot
+from engine.robots.base import Robot
+from engine.robots.core import Motion
 
 if TYPE_CHECKING:
     from engine.context import MissionContext, SiteState
