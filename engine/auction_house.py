@@ -11,8 +11,8 @@ it if the winner falls silent. The records it keeps and the decisions it applies
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Literal
+from collections.abc import Callable, Mapping, Set
+from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import simpy
 
@@ -24,10 +24,38 @@ from engine.auction_rules import (
     Duties,
     rank_bids,
 )
-from engine.messages import Ack, Announce, Award, Bid, Close, Location, TaskType
+from engine.messages import Ack, Announce, Award, Bid, Close, Location, Message, TaskType
 
 if TYPE_CHECKING:
-    from engine.context import MissionContext
+    from engine.scenario import Protocol as ProtocolSettings
+
+
+class AuctionPorts(Protocol):
+    """What an auctioneer needs of the mission, and nothing more: the clock, the protocol's
+    timing, the bus, the observer's records and, for the centralized baseline only, an
+    oracle's award order (None: the auctioneer ranks the bids)."""
+
+    env: simpy.Environment
+
+    @property
+    def protocol(self) -> ProtocolSettings: ...
+    def publish(self, msg: Message) -> None: ...
+    def emit(self, kind: str, /, **data: Any) -> None: ...
+    def new_auction(
+        self,
+        auctioneer: str,
+        kind: str,
+        task_type: TaskType,
+        location: Location,
+        task_id: str,
+        search_path: tuple[Location, ...],
+        reauction_of: str | None,
+    ) -> AuctionRecord: ...
+    def close_auction(self, rec: AuctionRecord, status: str, winner: str | None) -> None: ...
+    def note_decline(self, rec: AuctionRecord, winner: str, outcome: str) -> None: ...
+    def oracle_rank(
+        self, rec: AuctionRecord, bids: Mapping[str, float], excluded: Set[str]
+    ) -> list[str] | None: ...
 
 
 class _Live:
@@ -48,10 +76,10 @@ class AuctionHouse:
     """The auctioneer role of one robot (or of the operator)."""
 
     def __init__(
-        self, owner: str, ctx: MissionContext, on_allocated: Callable[[Allocation], None]
+        self, owner: str, ports: AuctionPorts, on_allocated: Callable[[Allocation], None]
     ) -> None:
         self.owner = owner
-        self.ctx = ctx
+        self.ports = ports
         self._on_allocated = on_allocated
         self.open_auctions: dict[str, AuctionRecord] = {}
         self._live: dict[str, _Live] = {}
@@ -71,17 +99,17 @@ class AuctionHouse:
         for running in self.open_auctions.values():
             if running.task_id == task_id:
                 return running  # one auction per task and auctioneer (adoption meets resumption)
-        rec = self.ctx.new_auction(
+        rec = self.ports.new_auction(
             self.owner, kind, task_type, location, task_id, search_path, reauction_of
         )
         self.open_auctions[rec.id] = rec
         live = _Live()
         self._live[rec.id] = live
-        live.process = self.ctx.env.process(self._run(rec, live))
+        live.process = self.ports.env.process(self._run(rec, live))
         return rec
 
     def _announce(self, rec: AuctionRecord) -> None:
-        self.ctx.bus.publish(
+        self.ports.publish(
             Announce(
                 sender=self.owner,
                 auction_id=rec.id,
@@ -96,7 +124,7 @@ class AuctionHouse:
         )
 
     def _run(self, rec: AuctionRecord, live: _Live) -> Any:
-        env, proto = self.ctx.env, self.ctx.scenario.protocol
+        env, proto = self.ports.env, self.ports.protocol
         try:
             self._announce(rec)
             yield env.timeout(proto.bid_window_s)
@@ -105,8 +133,8 @@ class AuctionHouse:
                     ack = env.event()
                     live.ack = (winner, ack)
                     rec.awards.append(AwardRecord(env.now, winner))
-                    self.ctx.log.emit("auction_awarded", auction_id=rec.id, winner=winner)
-                    self.ctx.bus.publish(
+                    self.ports.emit("auction_awarded", auction_id=rec.id, winner=winner)
+                    self.ports.publish(
                         Award(
                             sender=self.owner,
                             auction_id=rec.id,
@@ -124,7 +152,7 @@ class AuctionHouse:
                         return
                     outcome = "declined" if ack.triggered else "timeout"
                     rec.awards[-1].outcome = outcome
-                    self.ctx.note_decline(rec, winner, outcome)
+                    self.ports.note_decline(rec, winner, outcome)
                     live.declined.add(winner)
                     break  # re-rank: bids may have changed while we waited
                 else:
@@ -138,7 +166,7 @@ class AuctionHouse:
                         rec.reannouncements += 1
                         live.live_bids.clear()
                         live.declined.clear()
-                        self.ctx.log.emit("auction_reannounced", auction_id=rec.id, round=rec.round)
+                        self.ports.emit("auction_reannounced", auction_id=rec.id, round=rec.round)
                         self._announce(rec)
                         yield env.timeout(proto.bid_window_s)
         except simpy.Interrupt:
@@ -147,7 +175,7 @@ class AuctionHouse:
     def _publish_close(
         self, rec: AuctionRecord, winner: str | None, status: Literal["closed", "cancelled"]
     ) -> None:
-        self.ctx.bus.publish(
+        self.ports.publish(
             Close(
                 sender=self.owner,
                 auction_id=rec.id,
@@ -159,21 +187,19 @@ class AuctionHouse:
                 status=status,
             )
         )
-        self.ctx.close_auction(rec, status, winner)
+        self.ports.close_auction(rec, status, winner)
 
     def _ranked(self, rec: AuctionRecord, live: _Live) -> list[str]:
         """Award order: the bids ranked (docs/spec.md §6.4), or the policy's oracle's choice."""
-        oracle = self.ctx.policy.allocator()
-        if oracle is None:
-            return rank_bids(live.live_bids, live.declined)
-        return oracle.rank(self.ctx, rec, live.live_bids, live.declined)
+        chosen = self.ports.oracle_rank(rec, live.live_bids, live.declined)
+        return rank_bids(live.live_bids, live.declined) if chosen is None else chosen
 
     def _close(self, rec: AuctionRecord, winner: str) -> None:
         self._publish_close(rec, winner, "closed")
         self.open_auctions.pop(rec.id, None)
         self._live.pop(rec.id, None)
         alloc = Allocation(
-            rec.id, rec.task_id, rec.task_type, rec.location, winner, self.ctx.env.now
+            rec.id, rec.task_id, rec.task_type, rec.location, winner, self.ports.env.now
         )
         alloc.search_path = rec.search_path
         self.allocations[rec.task_id] = alloc
@@ -194,7 +220,7 @@ class AuctionHouse:
         live = self._live.get(msg.auction_id)
         if rec is None or live is None or msg.round != rec.round:
             return
-        rec.bids.append(BidRecord(self.ctx.env.now, msg.bidder, msg.utility, msg.round))
+        rec.bids.append(BidRecord(self.ports.env.now, msg.bidder, msg.utility, msg.round))
         live.live_bids[msg.bidder] = msg.utility
         if math.isfinite(msg.utility):
             live.declined.discard(msg.bidder)
@@ -242,5 +268,5 @@ class AuctionHouse:
             if tid not in self.allocations and not any(
                 r.task_id == tid for r in self.open_auctions.values()
             ):
-                alloc.since = float(self.ctx.env.now)
+                alloc.since = float(self.ports.env.now)
                 self.allocations[tid] = alloc

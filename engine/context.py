@@ -9,6 +9,7 @@ is bookkeeping for the researcher; no robot decision reads it.
 from __future__ import annotations
 
 import base64
+from collections.abc import Mapping, Set
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +22,7 @@ from engine.geometry import Point, dist
 from engine.liveness import Liveness
 from engine.messages import Location, Message, TaskType
 from engine.planning import PathPlanner
+from engine.scenario import Protocol as ProtocolSettings
 from engine.scenario import Scenario
 from engine.world import World
 
@@ -106,6 +108,20 @@ class MissionContext:
         for site in self.sites:
             key = (int(site.x // g.cell_w), int(site.y // g.cell_h))
             self._site_cells.setdefault(key, []).append(site)
+
+    # --- what an auctioneer needs (engine.auction_house.AuctionPorts) ----------------------
+    @property
+    def protocol(self) -> ProtocolSettings:
+        return self.scenario.protocol
+
+    def publish(self, msg: Message) -> None:
+        self.bus.publish(msg)
+
+    def oracle_rank(
+        self, rec: AuctionRecord, bids: Mapping[str, float], excluded: Set[str]
+    ) -> list[str] | None:
+        oracle = self.policy.allocator()
+        return None if oracle is None else oracle.rank(self, rec, bids, excluded)
 
     # --- observer -------------------------------------------------------------------------
     def _note_progress(self, ev: Event) -> None:
