@@ -159,7 +159,8 @@ class MissionRunner:
         for lm in list(self.live.values()):
             if not lm.finishing:
                 with self.gate:
-                    changes = {"status": "interrupted", "final_state": self._safe_snap(lm)}
+                    snap = self._safe_snap(lm, "interrupted")
+                    changes = {"status": "interrupted", "final_state": snap}
                     self._write(lm, changes)
         await self.drain()
         with self.gate:
@@ -307,7 +308,7 @@ class MissionRunner:
         changes: dict[str, Any] = {"status": status, "ended_at": utcnow()}
         if error is None:
             changes["metrics"] = lm.mission.metrics()
-            changes["final_state"] = self._safe_snap(lm)
+            changes["final_state"] = self._safe_snap(lm, status)
         else:
             changes["error"] = error
         written = self._write(lm, changes)
@@ -325,9 +326,11 @@ class MissionRunner:
         return lm.final_task
 
     @staticmethod
-    def _safe_snap(lm: LiveMission) -> dict[str, Any] | None:
+    def _safe_snap(lm: LiveMission, status: str) -> dict[str, Any] | None:
+        """The stored last state, carrying the record's status (the engine's snapshot says
+        "running" for a mission the service stopped or interrupted)."""
         try:
-            snap: dict[str, Any] = lm.mission.snapshot()
+            snap: dict[str, Any] = {**lm.mission.snapshot(), "status": status}
             return snap
         except Exception:  # a broken engine state must not lose the rest of the record
             log.exception("snapshot of mission %s failed", lm.id, extra={"mission_id": lm.id})

@@ -10,7 +10,14 @@ from pathlib import Path
 from typing import Any
 
 from engine import reference_scenario, run_mission
-from tests.api.conftest import LiveServer, all_pages, make_settings, run_to_end, wait_for
+from tests.api.conftest import (
+    LiveServer,
+    all_pages,
+    make_settings,
+    recv,
+    run_to_end,
+    wait_for,
+)
 
 
 def _history(api: Any, mid: int) -> tuple[list[Any], list[Any], int]:
@@ -44,6 +51,9 @@ def test_restart_keeps_every_mission_auction_and_action(tmp_path: Path) -> None:
             assert listed[done]["status"] == "completed"
             assert listed[live]["status"] == "interrupted"
             assert listed[live]["sim_time"] == sim_time
+            with server.ws(live) as ws:  # the stored last state says what the record says
+                snap = recv(ws)
+                assert snap["type"] == "snapshot" and snap["state"]["status"] == "interrupted"
             for mid in (done, live):
                 assert _history(api, mid) == before[mid]
             again = api.get(f"/api/missions/{done}").json()
