@@ -65,7 +65,9 @@ class OracleAllocator:
         bids: Mapping[str, float],
         excluded: Set[str],
     ) -> list[str]:
-        tasks = [a for a in ctx.auctions if a.status == "open" and a.task_type == rec.task_type]
+        tasks = [
+            a for a in ctx.observer.auctions if a.status == "open" and a.task_type == rec.task_type
+        ]
         if rec not in tasks:
             return []
         promised = {

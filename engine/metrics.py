@@ -29,27 +29,28 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
     for r in ctx.robots.values():
         if r.rtype in distance:
             distance[r.rtype] += r.distance + (_partial(r))
+    field, obs = ctx.field, ctx.observer
     open_times: dict[str, list[float]] = {k: [] for k in AUCTION_KINDS_REPORTED}
-    for rec in ctx.auctions:
+    for rec in obs.auctions:
         if rec.status == "closed" and rec.kind in open_times and rec.open_time is not None:
             open_times[rec.kind].append(rec.open_time)
     return {
-        "sites_found": ctx.sites_found,
-        "sites_total": len(ctx.sites),
-        "minerals_delivered": ctx.delivered,
-        "minerals_total": ctx.minerals_total,
+        "sites_found": field.sites_found,
+        "sites_total": len(field.sites),
+        "minerals_delivered": field.delivered,
+        "minerals_total": field.minerals_total,
         "distance": distance,
         "distance_total": sum(distance.values()),
         "auction_open_s": {k: open_time_stats(v) for k, v in open_times.items()},
-        "auctions": len(ctx.auctions),
-        "bids": ctx.bids,
-        "declines": ctx.declines,
-        "reannouncements": sum(rec.reannouncements for rec in ctx.auctions),
+        "auctions": len(obs.auctions),
+        "bids": obs.bids,
+        "declines": obs.declines,
+        "reannouncements": sum(rec.reannouncements for rec in obs.auctions),
         "messages": ctx.bus.published,
-        "failures": ctx.failures,
-        "reauctions": ctx.reauctions,
-        "minerals_dropped": ctx.dropped,
-        "minerals_recovered": ctx.recovered,
+        "failures": obs.failures,
+        "reauctions": obs.reauctions,
+        "minerals_dropped": obs.dropped,
+        "minerals_recovered": obs.recovered,
         "messages_lost": ctx.bus.lost,
         "planner_queries": ctx.planner.stats.queries,
         "planner_ompl_queries": ctx.planner.stats.ompl_queries,

@@ -59,7 +59,9 @@ class Mission(MissionViews):
         self.ctx = ctx = MissionContext(
             scenario, self.world, chosen, self.env, make_policy(self.initial_policy)
         )
-        ctx.bus = EmbeddedBus(self.env, scenario.bus, bus_rng, ctx.record_message, ctx.liveness)
+        ctx.bus = EmbeddedBus(
+            self.env, scenario.bus, bus_rng, ctx.observer.record_message, ctx.liveness
+        )
         self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
         self._counts: dict[str, int] = {t: 0 for t in ROBOT_TYPES}
         team = scenario.team
@@ -130,20 +132,20 @@ class Mission(MissionViews):
 
     @property
     def events(self) -> list[Event]:
-        return self.ctx.log.events
+        return self.ctx.observer.log.events
 
     @property
     def auctions(self) -> list[AuctionRecord]:
-        return self.ctx.auctions
+        return self.ctx.observer.auctions
 
     def subscribe(self, fn: Callable[[Event], None]) -> None:
-        self.ctx.log.subscribe(fn)
+        self.ctx.observer.log.subscribe(fn)
 
     def advance(self, until: float) -> None:
         """Process every event up to simulation time `until` (clamped to the mission's end)."""
         if self.done:
             return
-        env, finished = self.env, self.ctx.finished
+        env, finished = self.env, self.ctx.field.finished
         limit = min(float(until), self.scenario.max_time_s)
         stalled = self._stalled
         while not finished.triggered and not stalled.triggered and env.peek() <= limit:
@@ -151,7 +153,7 @@ class Mission(MissionViews):
         if finished.triggered:
             self._end("completed")
         elif stalled.triggered:
-            self.ctx.emit("mission_stalled", **self.stall_report())
+            self.ctx.observer.emit("mission_stalled", **self.stall_report())
             self._end("stalled")
         elif limit >= self.scenario.max_time_s:
             if limit > env.now:
@@ -164,7 +166,7 @@ class Mission(MissionViews):
         """End the mission `stalled` once nothing has moved it forward for stall_timeout_s."""
         timeout = self.scenario.stall_timeout_s
         while True:
-            due = self.ctx.progress_at + timeout
+            due = self.ctx.observer.progress_at + timeout
             if self.env.now >= due:
                 self._stalled.succeed()
                 return
@@ -176,7 +178,9 @@ class Mission(MissionViews):
 
     def _end(self, status: str) -> None:
         self.status = status
-        self.ctx.emit("mission_ended", status=status, makespan_s=self.ctx.finished_at)
+        self.ctx.observer.emit(
+            "mission_ended", status=status, makespan_s=self.ctx.field.finished_at
+        )
         self.close()
 
     def close(self) -> None:
@@ -193,7 +197,7 @@ class Mission(MissionViews):
             "scenario": self.scenario.name,
             "status": self.status,
             "completed": self.status == "completed",
-            "makespan_s": self.ctx.finished_at,
+            "makespan_s": self.ctx.field.finished_at,
             "sim_time_s": self.now,
         }
         out.update(mission_metrics(self.ctx))
@@ -203,7 +207,7 @@ class Mission(MissionViews):
     # --- operator commands --------------------------------------------------------------
     def _record(self, kind: str, **args: Any) -> None:
         self.actions.append({"t": self.now, "kind": kind, "args": args})
-        self.ctx.progress_at = self.now  # an operator steering is not a stall
+        self.ctx.observer.progress_at = self.now  # an operator steering is not a stall
 
     def _check_running(self) -> None:
         """Settle the current instant, then refuse if the mission has ended.
@@ -233,7 +237,7 @@ class Mission(MissionViews):
         old = self.ctx.policy.name
         self.ctx.policy = make_policy(name)
         self.ctx.bus.publish(PolicyChange(sender=OPERATOR, policy=name))
-        self.ctx.emit("policy_changed", old=old, new=name)
+        self.ctx.observer.emit("policy_changed", old=old, new=name)
         for r in self._robots():
             r.wake()
             r.policy_changed()
@@ -248,12 +252,12 @@ class Mission(MissionViews):
             raise CommandRejected(f"robot {name!r} is already {r.state}")
         self._record("disable_robot", name=name, mode=mode)
         if mode == "abrupt":
-            self.ctx.failures += 1
+            self.ctx.observer.failures += 1
             r.fail()
-            self.ctx.emit("robot_failed", robot=name, x=r.pos[0], y=r.pos[1])
+            self.ctx.observer.emit("robot_failed", robot=name, x=r.pos[0], y=r.pos[1])
         else:
             r.disable()
-            self.ctx.emit("robot_disabled", robot=name)
+            self.ctx.observer.emit("robot_disabled", robot=name)
 
     def enable_robot(self, name: str) -> None:
         self._check_running()
@@ -265,7 +269,7 @@ class Mission(MissionViews):
             r.leaving = False  # it had not finished leaving: it simply stays
         else:
             r.enable()
-        self.ctx.emit("robot_enabled", robot=name)
+        self.ctx.observer.emit("robot_enabled", robot=name)
 
     def add_robot(self, rtype: str, position: tuple[float, float] | None = None) -> str:
         self._check_running()
@@ -277,7 +281,7 @@ class Mission(MissionViews):
         self._record("add_robot", type=rtype, position=None if position is None else list(pos))
         robot = self._make_robot(rtype, pos)
         robot.start(joined_late=True)
-        self.ctx.emit("robot_added", robot=robot.name, type=rtype, x=pos[0], y=pos[1])
+        self.ctx.observer.emit("robot_added", robot=robot.name, type=rtype, x=pos[0], y=pos[1])
         return robot.name
 
     def inject_task(self, task_type: str = "excavate", location: Iterable[float] = ()) -> str:
@@ -290,7 +294,7 @@ class Mission(MissionViews):
             # snap to a site the robots know of, so the operator can point roughly at one
             near = [
                 s
-                for s in self.ctx.sites
+                for s in self.ctx.field.sites
                 if s.found_at is not None
                 and math.hypot(s.x - x, s.y - y) <= self.scenario.scan_radius
             ]
@@ -299,7 +303,7 @@ class Mission(MissionViews):
                 x, y, task_id = s.x, s.y, site_task_id(s.x, s.y)
         self._record("inject_task", type=task_type, location=[x, y])
         rec = self.operator.house.open(task_type, (x, y), task_id, kind="operator")  # type: ignore[arg-type]
-        self.ctx.emit("task_injected", auction_id=rec.id, task_type=task_type, x=x, y=y)
+        self.ctx.observer.emit("task_injected", auction_id=rec.id, task_type=task_type, x=x, y=y)
         return rec.id
 
     def _free_point(self, p: tuple[float, ...], field: str) -> tuple[float, float]:

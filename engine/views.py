@@ -67,21 +67,23 @@ class MissionViews:
 
     def counters(self) -> dict[str, int]:
         ctx = self.ctx
+        field, obs = ctx.field, ctx.observer
         return {
-            "sites_found": ctx.sites_found,
-            "sites_total": len(ctx.sites),
-            "minerals_delivered": ctx.delivered,
-            "minerals_total": ctx.minerals_total,
-            "auctions": len(ctx.auctions),
-            "bids": ctx.bids,
-            "declines": ctx.declines,
-            "reannouncements": sum(a.reannouncements for a in ctx.auctions),
+            "sites_found": field.sites_found,
+            "sites_total": len(field.sites),
+            "minerals_delivered": field.delivered,
+            "minerals_total": field.minerals_total,
+            "auctions": len(obs.auctions),
+            "bids": obs.bids,
+            "declines": obs.declines,
+            "reannouncements": sum(a.reannouncements for a in obs.auctions),
             "messages": ctx.bus.published,
         }
 
     def stall_report(self) -> dict[str, Any]:
         """What is stuck: the open auctions, and what every robot is doing or waiting for."""
         ctx = self.ctx
+        field, obs = ctx.field, ctx.observer
         auctions = [
             {
                 "auction_id": a.id,
@@ -90,7 +92,7 @@ class MissionViews:
                 "rounds": a.round,
                 "declines": sum(1 for w in a.awards if w.outcome != "accepted"),
             }
-            for a in ctx.auctions
+            for a in obs.auctions
             if a.status == "open"
         ]
         robots = [
@@ -104,11 +106,11 @@ class MissionViews:
             for r in self._robots()
         ]
         return {
-            "stalled_for_s": self.now - ctx.progress_at,
+            "stalled_for_s": self.now - obs.progress_at,
             "open_auctions": auctions,
             "robots": robots,
             "minerals": ctx.minerals_in(),
-            "sites_unfound": len(ctx.sites) - ctx.sites_found,
+            "sites_unfound": len(field.sites) - field.sites_found,
         }
 
     def frame(self) -> dict[str, Any]:
@@ -117,8 +119,8 @@ class MissionViews:
             "status": self.status,
             "policy": self.policy,
             "robots": [self._robot_dict(r, False) for r in self._robots()],
-            "scanned": self.ctx.scanned_b64(),
-            "scanned_count": self.ctx.scanned_count,
+            "scanned": self.ctx.field.scanned_b64(),
+            "scanned_count": self.ctx.field.scanned_count,
             "counters": self.counters(),
         }
 
@@ -126,7 +128,7 @@ class MissionViews:
         return [self._robot_dict(r, True) for r in self._robots()]
 
     def snapshot(self) -> dict[str, Any]:
-        ctx = self.ctx
+        field, obs = self.ctx.field, self.ctx.observer
         return {
             "t": self.now,
             "status": self.status,
@@ -145,12 +147,12 @@ class MissionViews:
                     "total": s.total,
                     "excavator": s.worker,
                 }
-                for s in ctx.sites
+                for s in field.sites
             ],
-            "dropped": [{"x": g.x, "y": g.y} for g in ctx.ground],
-            "scanned": ctx.scanned_b64(),
-            "scanned_count": ctx.scanned_count,
-            "cells_total": len(ctx.scanned),
-            "auctions": [a.to_dict() for a in ctx.auctions if a.status == "open"],
+            "dropped": [{"x": g.x, "y": g.y} for g in field.ground],
+            "scanned": field.scanned_b64(),
+            "scanned_count": field.scanned_count,
+            "cells_total": len(field.scanned),
+            "auctions": [a.to_dict() for a in obs.auctions if a.status == "open"],
             "counters": self.counters(),
         }

@@ -232,7 +232,7 @@ class Robot(Bidder, Recovery):
     # --- tasks --------------------------------------------------------------------------
     def assign(self, a: Assignment) -> None:
         self.queue.append(a)
-        self.ctx.emit(
+        self.ctx.observer.emit(
             "task_started",
             robot=self.name,
             task_id=a.task_id,
@@ -247,7 +247,7 @@ class Robot(Bidder, Recovery):
             self.done_ids.append(a.task_id)
         if outcome == "done" or (outcome == "void" and a.task_type == "transport"):
             self.completed.add(a.task_id)  # final: no one need ever carry this again
-        self.ctx.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
+        self.ctx.observer.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
         self.ctx.bus.publish(
             TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)
         )
@@ -284,7 +284,7 @@ class Robot(Bidder, Recovery):
         self.ctx.bus.publish(Leaving(sender=self.name, progress=self.progress()))
         self.fail()
         self.state = "disabled"
-        self.ctx.emit("robot_quiet", robot=self.name)
+        self.ctx.observer.emit("robot_quiet", robot=self.name)
 
     def enable(self) -> None:
         """Back from a failure (a new life): a full peer at once for bidding and working; its

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any, cast
 import simpy
 
 from engine.auction_rules import Allocation
-from engine.context import NEAR
+from engine.field import NEAR
 from engine.geometry import Point, dist, path_length
 from engine.messages import Close
 from engine.planning import PlanningError
@@ -15,7 +15,7 @@ from engine.robots.base import Robot
 from engine.robots.core import Assignment
 
 if TYPE_CHECKING:
-    from engine.context import SiteState
+    from engine.field import SiteState
     from engine.robots.hauler import Hauler
 
 
@@ -64,7 +64,7 @@ class Excavator(Robot):
         self.state = "travelling"
         self.auction_on_the_way(a)
         yield from self.go_to(a.location)
-        site = self.ctx.site_at(a.location)
+        site = self.ctx.field.site_at(a.location)
         if self.ahead:
             for r in self.ctx.robots.values():
                 if r.rtype == "hauler" and dist(r.pos, self.pos) <= NEAR:
@@ -82,7 +82,9 @@ class Excavator(Robot):
                 site.remaining -= 1
                 self.bucket = 1
                 self.minerals_dug += 1
-                self.ctx.emit("dug", robot=self.name, site=site.id, remaining=site.remaining)
+                self.ctx.observer.emit(
+                    "dug", robot=self.name, site=site.id, remaining=site.remaining
+                )
                 if self.ahead:
                     yield from self.hand_over_ahead(site)
                 else:
@@ -253,7 +255,7 @@ class Excavator(Robot):
                 float(self.env.now),
             )
         hauler.receive(self, task_id)
-        self.ctx.emit(
+        self.ctx.observer.emit(
             "pickup", robot=hauler.name, from_robot=self.name, x=self.pos[0], y=self.pos[1]
         )
 
@@ -269,7 +271,7 @@ class Excavator(Robot):
         t, pos = 0.0, here
         cur = self.current
         if cur is not None:
-            site = self.ctx.site_at(self.pos) if self.motion is None else None
+            site = self.ctx.field.site_at(self.pos) if self.motion is None else None
             if site is not None and dist(self.pos, cur.location) <= NEAR:
                 t += site.remaining * per + (cfg.timing.transfer_s if self.bucket else 0.0)
             else:
@@ -314,7 +316,7 @@ class Excavator(Robot):
     def auction_ground_minerals(self) -> None:
         """Minerals lying where I stand (a failed robot's) get a transport, unless one is known."""
         here = self.pos
-        for g in list(self.ctx.ground):
+        for g in list(self.ctx.field.ground):
             if dist((g.x, g.y), here) > NEAR or self._transport_known_at((g.x, g.y)):
                 continue
             self._ground_serial += 1
@@ -358,7 +360,7 @@ class Excavator(Robot):
         pass
 
     def on_revoked(self) -> None:
-        site = self.ctx.site_at(self.pos)
+        site = self.ctx.field.site_at(self.pos)
         if site is not None and site.worker == self.name:
             site.worker = None
         self.waiting_for = None
@@ -369,8 +371,8 @@ class Excavator(Robot):
     def drop_loads(self) -> None:
         if self.bucket:
             self.bucket = 0
-            self.ctx.drop_mineral(self.pos, self.name)
-        site = self.ctx.site_at(self.pos)
+            self.ctx.field.drop_mineral(self.pos, self.name)
+        site = self.ctx.field.site_at(self.pos)
         if site is not None and site.worker == self.name:
             site.worker = None
         self.waiting_for = None

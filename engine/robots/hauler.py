@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import simpy
 
-from engine.context import NEAR
+from engine.field import NEAR
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
 from engine.robots.base import Robot
@@ -121,26 +121,26 @@ class Hauler(Robot):
             a, b = route[i], route[i + 1]
             seen = sorted(
                 (dist(a, (g.x, g.y)), g.id, (g.x, g.y))
-                for g in self.ctx.ground
+                for g in self.ctx.field.ground
                 if segment_point_distance(a, b, (g.x, g.y)) <= SENSE
             )
             for _, _, spot in seen:
                 yield from self.go_to(spot)
-                if self.ctx.ground_near(self.pos, SENSE) is not None:
+                if self.ctx.field.ground_near(self.pos, SENSE) is not None:
                     return
             yield from self.go_to(b)
 
     def pick_from_ground(self, p: Point) -> Any:
-        g = self.ctx.ground_near(p, SENSE)
+        g = self.ctx.field.ground_near(p, SENSE)
         if g is None:
             return
         if dist(p, (g.x, g.y)) > NEAR:
             yield from self.go_to((g.x, g.y))
         self.state = "loading"
         yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
-        if g in self.ctx.ground:
+        if g in self.ctx.field.ground:
             self.bin = 1
-            self.ctx.pick_ground(g, self.name)
+            self.ctx.field.pick_ground(g, self.name)
 
     def deliver(self) -> Any:
         self.state = "carrying"
@@ -148,7 +148,7 @@ class Hauler(Robot):
         self.state = "unloading"
         yield self.env.timeout(self.ctx.scenario.timing.unload_s)
         self.bin = 0
-        self.ctx.note_delivery(self.name)
+        self.ctx.field.note_delivery(self.name)
 
     def _excavator_here(self, pred: Any) -> Excavator | None:
         for r in self.ctx.robots.values():
@@ -202,7 +202,7 @@ class Hauler(Robot):
         exc.partner_left(self)
         if self.bin:
             yield from self.deliver()
-            self.ctx.emit("coalition_delivery", robot=self.name, excavator=exc.name)
+            self.ctx.observer.emit("coalition_delivery", robot=self.name, excavator=exc.name)
             if self.current is not None:
                 self.finish(self.current)
 
@@ -247,5 +247,5 @@ class Hauler(Robot):
     def drop_loads(self) -> None:
         if self.bin:
             self.bin = 0
-            self.ctx.drop_mineral(self.pos, self.name)
+            self.ctx.field.drop_mineral(self.pos, self.name)
         self._loaded = None

@@ -98,7 +98,7 @@ class Recovery(RobotCore):
 
     def peer_down(self, peer: str) -> None:
         """`peer` fell silent or left: re-auction what it held from me, adopt its duties."""
-        self.ctx.emit("failure_detected", by=self.name, robot=peer)
+        self.ctx.observer.emit("failure_detected", by=self.name, robot=peer)
         board = self.ctx.liveness
         for tid, alloc in list(self.house.allocations.items()):
             if alloc.winner == peer:
@@ -150,7 +150,7 @@ class Recovery(RobotCore):
         self.adopted[peer] = opened
         self.adopted_tasks[peer] = tuple(tasks)
         self.adopted_cells[peer] = tuple(self.adopt_extra(peer))
-        self.ctx.emit("takeover", by=self.name, robot=peer, auctions=opened)
+        self.ctx.observer.emit("takeover", by=self.name, robot=peer, auctions=opened)
         self._publish_takeover(peer)
 
     def _publish_takeover(self, peer: str) -> None:
@@ -206,7 +206,7 @@ class Recovery(RobotCore):
         self.dormant = Duties()
         self.rejoining = False
         self.house.resume(kept)
-        self.ctx.emit(
+        self.ctx.observer.emit(
             "duties_settled",
             robot=self.name,
             resumed=len(kept.auctions) + len(kept.watches),
@@ -252,7 +252,9 @@ class Recovery(RobotCore):
         alloc = self.house.allocations.get(msg.task_id)
         if alloc is not None and alloc.winner != msg.sender:
             self.ctx.bus.publish(Revoke(sender=self.name, task_id=msg.task_id, robot=alloc.winner))
-            self.ctx.emit("task_revoked", by=self.name, robot=alloc.winner, task_id=msg.task_id)
+            self.ctx.observer.emit(
+                "task_revoked", by=self.name, robot=alloc.winner, task_id=msg.task_id
+            )
             alloc.winner = msg.sender
 
     def _on_revoke(self, msg: Revoke) -> None:
@@ -266,7 +268,9 @@ class Recovery(RobotCore):
                     Holding(sender=self.name, task_id=cur.task_id, auction_id=cur.auction_id)
                 )
             elif self._life_proc is not None and self._life_proc.is_alive:
-                self.ctx.emit("task_ended", robot=self.name, task_id=cur.task_id, outcome="revoked")
+                self.ctx.observer.emit(
+                    "task_ended", robot=self.name, task_id=cur.task_id, outcome="revoked"
+                )
                 self._life_proc.interrupt("revoked")
 
     def _on_probe(self, msg: Probe) -> None:

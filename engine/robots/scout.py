@@ -12,7 +12,8 @@ from engine.robots.base import Robot
 from engine.robots.core import Motion
 
 if TYPE_CHECKING:
-    from engine.context import MissionContext, SiteState
+    from engine.context import MissionContext
+    from engine.field import SiteState
 
 
 SHARE_MIN = 4
@@ -66,10 +67,10 @@ class Scout(Robot):
                     try:
                         path = self.ctx.planner.plan(self.pos, goal)
                     except PlanningError:
-                        self.ctx.emit("unreachable", robot=self.name, cell=cell)
+                        self.ctx.observer.emit("unreachable", robot=self.name, cell=cell)
                     else:
                         yield from self.sweep_to(path)
-                        self.ctx.mark_scanned(cell)
+                        self.ctx.field.mark_scanned(cell)
                 self.cursor += 1
             else:
                 self.state = "idle"
@@ -83,7 +84,7 @@ class Scout(Robot):
         for i in range(len(path) - 1):
             a, b = path[i], path[i + 1]
             seg = dist(a, b)
-            for site in self.ctx.sites_near(a, b, r):
+            for site in self.ctx.field.sites_near(a, b, r):
                 u = first_entry(a, b, (site.x, site.y), r)
                 if u is not None:
                     hits.append((along + u * seg, len(hits), site))
@@ -104,7 +105,7 @@ class Scout(Robot):
         self._end_motion(along)
 
     def detect(self, site: SiteState) -> None:
-        self.ctx.note_site_found(site, self.name)
+        self.ctx.field.note_site_found(site, self.name)
         tid = site_task_id(site.x, site.y)
         if tid in self.known_tasks:
             return
@@ -182,7 +183,7 @@ class Scout(Robot):
         hid = f"{self.name}>{to}#{self._handoffs}"
         self._given[hid] = (to, cells, float(self.env.now))
         self.routes.setdefault(to, []).extend(cells)
-        self.ctx.emit("handoff", by=self.name, to=to, cells=len(cells), handoff_id=hid)
+        self.ctx.observer.emit("handoff", by=self.name, to=to, cells=len(cells), handoff_id=hid)
         self.ctx.bus.publish(Handoff(sender=self.name, to=to, cells=tuple(cells), handoff_id=hid))
 
     def on_handoff_heard(self, msg: Handoff) -> None:
@@ -208,7 +209,7 @@ class Scout(Robot):
                 # unconfirmed: scan them myself (at worst twice, never not at all)
                 del self._given[hid]
                 self.route.extend(cells)
-                self.ctx.emit("handoff_taken_back", by=self.name, to=to, handoff_id=hid)
+                self.ctx.observer.emit("handoff_taken_back", by=self.name, to=to, handoff_id=hid)
                 self.wake()
 
     def on_cells_taken(self, cells: tuple[int, ...]) -> None:

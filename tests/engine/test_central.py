@@ -39,18 +39,18 @@ def near_and_far(policy: str) -> tuple[Mission, str, str]:
 
 def test_the_oracle_awards_by_the_optimal_assignment_not_the_best_bid():
     m, near, far = near_and_far("central")
-    first, second = (m.ctx.auctions_by_id[a] for a in (near, far))
+    first, second = (m.ctx.observer.auctions_by_id[a] for a in (near, far))
     best_bid = max(first.bids, key=lambda b: b.utility)
     assert best_bid.bidder == "excavator-1"  # the nearer robot bid highest ...
     assert first.allocated_to == "excavator-2"  # ... but the optimum sends it to the far task
     assert second.allocated_to == "excavator-1"
-    assert m.ctx.declines == 0
+    assert m.ctx.observer.declines == 0
 
 
 def test_with_policy_3_the_same_situation_goes_greedily():
     m, near, far = near_and_far("nearest")
-    assert m.ctx.auctions_by_id[near].allocated_to == "excavator-1"
-    assert m.ctx.auctions_by_id[far].allocated_to == "excavator-2"
+    assert m.ctx.observer.auctions_by_id[near].allocated_to == "excavator-1"
+    assert m.ctx.observer.auctions_by_id[far].allocated_to == "excavator-2"
 
 
 def test_a_task_waits_while_the_optimum_gives_it_no_robot():
@@ -59,8 +59,8 @@ def test_a_task_waits_while_the_optimum_gives_it_no_robot():
     first = m.inject_task("excavate", (ax - 20.0, ay))
     second = m.inject_task("excavate", (ax + 3.0, ay))
     m.advance(3)
-    assert m.ctx.auctions_by_id[second].allocated_to == "excavator-1"
-    waiting = m.ctx.auctions_by_id[first]
+    assert m.ctx.observer.auctions_by_id[second].allocated_to == "excavator-1"
+    waiting = m.ctx.observer.auctions_by_id[first]
     assert waiting.status == "open" and not waiting.awards
     m.advance(120)  # the second site is void (nothing there): the robot is free again
     assert waiting.status == "closed" and waiting.allocated_to == "excavator-1"
@@ -69,7 +69,7 @@ def test_a_task_waits_while_the_optimum_gives_it_no_robot():
 def test_invariants_hold_under_the_oracle_with_failures():
     for seed in (3, 1543):
         m = run_with_failures("central", seed)
-        assert m.status == "completed" and m.ctx.delivered == m.ctx.minerals_total
+        assert m.status == "completed" and m.ctx.field.delivered == m.ctx.field.minerals_total
 
 
 def test_the_oracle_run_is_deterministic():

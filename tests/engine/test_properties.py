@@ -36,8 +36,8 @@ def test_invariants_hold_at_every_event(seed, scenario, policy):
     m.run()
     watch.final()
     assert m.status == "completed"
-    assert m.ctx.delivered == m.ctx.minerals_total
-    assert m.ctx.sites_found == len(m.ctx.sites)
+    assert m.ctx.field.delivered == m.ctx.field.minerals_total
+    assert m.ctx.field.sites_found == len(m.ctx.field.sites)
 
 
 @st.composite
@@ -72,8 +72,8 @@ def test_missions_survive_abrupt_failures(seed, policy, plan):
     m.run()
     watch.final()
     assert m.status == "completed", (failures, m.metrics())
-    assert m.ctx.delivered == m.ctx.minerals_total
-    assert m.ctx.sites_found == len(m.ctx.sites)
+    assert m.ctx.field.delivered == m.ctx.field.minerals_total
+    assert m.ctx.field.sites_found == len(m.ctx.field.sites)
 
 
 @given(
@@ -95,4 +95,4 @@ def test_invariants_hold_on_a_lossy_slow_bus(seed, policy, loss, latency):
     m.run()
     watch.final()
     assert m.status == "completed"
-    assert m.ctx.delivered == m.ctx.minerals_total
+    assert m.ctx.field.delivered == m.ctx.field.minerals_total

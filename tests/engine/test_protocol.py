@@ -25,7 +25,7 @@ def bids_for(m: Mission, auction_id: str) -> list[dict]:
 def test_announcement_bid_award_ack_close_in_order():
     m = two_tasks("fcfs")
     m.advance(60)
-    rec = m.ctx.auctions_by_id["operator/1"]
+    rec = m.ctx.observer.auctions_by_id["operator/1"]
     assert rec.status == "closed" and rec.allocated_to == "excavator-1"
     kinds = [
         e.data["type"]
@@ -41,12 +41,12 @@ def test_announcement_bid_award_ack_close_in_order():
 def test_policy_1_bids_go_only_to_the_first_auction_until_it_closes():
     m = two_tasks("fcfs")
     m.advance(120)
-    first = m.ctx.auctions_by_id["operator/1"]
+    first = m.ctx.observer.auctions_by_id["operator/1"]
     second_bids = bids_for(m, "operator/2")
     assert bids_for(m, "operator/1"), "nobody bid in the first auction"
     assert second_bids, "nobody bid in the second auction after the first closed"
     assert all(b["t"] >= first.closed_at for b in second_bids)
-    assert m.ctx.auctions_by_id["operator/2"].allocated_to == "excavator-2"
+    assert m.ctx.observer.auctions_by_id["operator/2"].allocated_to == "excavator-2"
 
 
 def test_policy_3_winner_of_two_keeps_the_nearer_and_the_other_goes_to_the_next_bidder():
@@ -55,20 +55,20 @@ def test_policy_3_winner_of_two_keeps_the_nearer_and_the_other_goes_to_the_next_
     m.inject_task("excavate", EAST)  # the farther task is auctioned (and awarded) first
     m.inject_task("excavate", WEST)
     m.advance(60)
-    east, west = (m.ctx.auctions_by_id[a] for a in ("operator/1", "operator/2"))
+    east, west = (m.ctx.observer.auctions_by_id[a] for a in ("operator/1", "operator/2"))
     # excavator-1 is the best bidder in both auctions and is awarded both
     assert west.awards[0].winner == "excavator-1" and east.awards[0].winner == "excavator-1"
     assert west.awards[0].outcome == "accepted"
     assert east.awards[0].outcome == "declined"
     # the declined auction goes to its next-highest bidder
     assert east.allocated_to == "excavator-2"
-    assert m.ctx.declines >= 1
+    assert m.ctx.observer.declines >= 1
 
 
 def test_busy_robot_bids_minus_inf_and_the_auction_is_reannounced_until_someone_can():
     m = two_tasks("fcfs", far_excavator=False)  # a lone excavator, two tasks
     m.advance(200)
-    second = m.ctx.auctions_by_id["operator/2"]
+    second = m.ctx.observer.auctions_by_id["operator/2"]
     infinite = [b for b in bids_for(m, "operator/2") if b["utility"] is None]
     assert infinite, "a busy robot must bid -inf"
     assert second.reannouncements >= 1
@@ -104,7 +104,7 @@ def test_policy_2_paired_haulers_carry_their_excavators_minerals_without_auction
         for a in m.auctions
         if a.kind == "excavator_hauler" and a.status == "closed" and a.reauction_of is None
     ]
-    assert len(coalition) + len(auctioned) == m.ctx.minerals_total
+    assert len(coalition) + len(auctioned) == m.ctx.field.minerals_total
 
 
 def test_operator_switches_policy_mid_mission_and_it_is_recorded():
