@@ -1,8 +1,12 @@
-"""report.md: the results table, the figures and a plain-language verdict for each figure.
+"""report.md: run status, the results table, the figures and a plain-language verdict each.
 
 A verdict names the policy with the lowest mean, then says for every other policy whether
-the difference is significant (Holm-adjusted Welch p < α) or not. It says "no significant
-difference" whenever that is the honest reading, and flags when Mann–Whitney disagrees.
+the difference is significant by the design's test — the paired t-test on per-seed
+differences when the policies ran the same seeds (a sweep's design), else Welch — with its
+p-value Holm-adjusted over the verdict family (summary.json `correction`). It says "no
+significant difference" whenever that is the honest reading, flags when the rank test
+(Wilcoxon, or Mann–Whitney) disagrees, and gives the unpaired Welch result as secondary.
+Every p-value printed is labelled raw or adjusted.
 """
 
 from __future__ import annotations
@@ -13,10 +17,19 @@ from experiments.figures import FigureSpec
 from experiments.spec import SweepSpec
 
 
-def fmt_p(p: float | None) -> str:
+def fmt_p(p: float | None, kind: str = "") -> str:
+    """`kind` labels the p-value in prose: 'adj' → p_adj=…, 'raw' → p_raw=…; '' → bare."""
     if p is None:
         return "n/a"
-    return "p<0.0001" if p < 1e-4 else f"p={p:.2g}" if p < 0.01 else f"p={p:.3f}"
+    name = f"p_{kind}" if kind else "p"
+    return f"{name}<0.0001" if p < 1e-4 else f"{name}={p:.2g}" if p < 0.01 else f"{name}={p:.3f}"
+
+
+def fmt_pv(p: float | None) -> str:
+    """A p-value in a table cell (the column header says raw or adjusted)."""
+    if p is None:
+        return "n/a"
+    return "<0.0001" if p < 1e-4 else f"{p:.2g}" if p < 0.01 else f"{p:.3f}"
 
 
 def fmt_num(x: float | None, digits: int | None = None) -> str:
@@ -38,6 +51,14 @@ def _pair(pairs: list[dict[str, Any]], a: str, b: str) -> tuple[dict[str, Any], 
     return None
 
 
+TEST_NAMES = {
+    "paired_t": "paired t",
+    "wilcoxon": "Wilcoxon",
+    "welch": "Welch",
+    "mwu": "Mann–Whitney",
+}
+
+
 def panel_verdict(
     spec: SweepSpec, summary: dict[str, Any], column: str, quantity: str, unit: str
 ) -> str:
@@ -57,36 +78,73 @@ def panel_verdict(
     mean = fmt_num(d["mean"], digits)
     head = f"{best.label} has the {word} mean {quantity} ({mean}{spread} {unit}"
     head += ", 95% CI)." if half is not None else f", n={d['n']})."
+    head += _incomplete_note(spec, summary)
     if len(have) == 1:
         return head
+    primary: tuple[list[str], list[str]] = ([], [])
     welch: tuple[list[str], list[str]] = ([], [])
-    pair: tuple[list[str], list[str]] = ([], [])
     alpha = summary["alpha"]
+    tests = set()
     for other in have:
         found = _pair(metric["pairwise"], best.name, other.name) if other != best else None
         if found is None:
             continue
         c, sign = found
-        eff = "" if c["cohen_d"] is None else f", d={sign * c['cohen_d']:.2f}"
-        mw = c["mwu_p_holm"]
+        test, check = c["primary_test"], "wilcoxon" if c["primary_test"] == "paired_t" else "mwu"
+        tests.add(test)
+        p = c[f"{test}_p_adj"]
+        if test == "paired_t":
+            ci = c["paired_ci95"]
+            lo, hi = sorted(-sign * v for v in ci) if None not in ci else (None, None)
+            lower = c["a_lower"] if sign == 1 else c["b_lower"]
+            diff = _signed(-sign * c["paired_mean_diff"], digits)
+            eff = f", per-seed {other.short}−{best.short} {diff} {unit}"
+            eff += "" if lo is None or hi is None else f" ({_ci(lo, hi, digits)})"
+            eff += f", {best.short} lower on {lower} of {c['n_pairs']} seeds"
+        else:
+            eff = "" if c["cohen_d"] is None else f", d={sign * c['cohen_d']:.2f}"
         note = ""
-        if mw is not None and (mw < alpha) != c["significant"]:
-            note = f"; Mann–Whitney {fmt_p(mw)} disagrees"
-        welch[0 if c["significant"] else 1].append(
-            f"{other.label} ({fmt_p(c['welch_p_holm'])}{eff}{note})"
+        cp = c[f"{check}_p_adj"]
+        if cp is not None and (cp < alpha) != c["significant"]:
+            note = f"; {TEST_NAMES[check]} {fmt_p(cp, 'adj')} disagrees"
+        primary[0 if c["significant"] else 1].append(
+            f"{other.label} ({fmt_p(p, 'adj')}{eff}{note})"
         )
-        if c.get("paired_t_p_holm") is not None:
-            wx = c.get("wilcoxon_p_holm")
-            wnote = ""
-            if wx is not None and (wx < alpha) != c["significant_paired"]:
-                wnote = f"; Wilcoxon {fmt_p(wx)} disagrees"
-            pair[0 if c["significant_paired"] else 1].append(
-                f"{other.short} ({fmt_p(c['paired_t_p_holm'])}{wnote})"
+        if test == "paired_t" and c["welch_p_adj"] is not None:
+            welch[0 if c["significant_welch"] else 1].append(
+                f"{other.short} ({fmt_p(c['welch_p_adj'], 'adj')})"
             )
-    parts = [head, _tests_sentence("Unpaired (Welch)", *welch)]
-    if pair[0] or pair[1]:
-        parts.append(_tests_sentence("Paired by seed (same worlds)", *pair))
+    if not (primary[0] or primary[1]):
+        return head
+    name = (
+        "Paired by seed (paired t on per-seed differences, Holm-adjusted over the verdict family)"
+        if tests == {"paired_t"}
+        else "By Welch's t-test (Holm-adjusted over the verdict family)"
+    )
+    parts = [head, _tests_sentence(name, *primary)]
+    if welch[0] or welch[1]:
+        parts.append(_tests_sentence("Secondary, unpaired (Welch)", *welch))
     return " ".join(parts)
+
+
+def _signed(x: float, digits: int) -> str:
+    return ("+" if x > 0 else "") + fmt_num(x, digits)
+
+
+def _ci(lo: float, hi: float, digits: int) -> str:
+    return f"95% CI {fmt_num(lo, digits)} to {fmt_num(hi, digits)}"
+
+
+def _incomplete_note(spec: SweepSpec, summary: dict[str, Any]) -> str:
+    """Warn, in every verdict, that runs which did not complete are not in the means."""
+    missing = {k: len(v) for k, v in summary.get("not_completed", {}).items() if v}
+    if not missing:
+        return ""
+    which = _join([f"{spec.policy(k).short}: {n}" for k, n in missing.items()])
+    return (
+        f" Runs that did not complete ({which}) are left out of these statistics, which "
+        "flatters the policies they belong to; see Run status."
+    )
 
 
 def _tests_sentence(test: str, sig: list[str], nonsig: list[str]) -> str:
@@ -140,6 +198,13 @@ def command(spec: SweepSpec) -> str:
 def _table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -> list[str]:
     head = "| metric | " + " | ".join(p.label for p in spec.policies) + " |"
     lines = [head, "|" + " --- |" * (len(spec.policies) + 1)]
+    status = summary.get("status", {})
+    cells = []
+    for p in spec.policies:
+        counts = status.get(p.name, {})
+        total = sum(counts.values())
+        cells.append(f"{counts.get('completed', 0)} of {total}")
+    lines.append("| runs completed (the statistics' n) | " + " | ".join(cells) + " |")
     for col in columns:
         per = summary["metrics"][col]["per_policy"]
         cells = []
@@ -155,71 +220,166 @@ def _table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -> list
     return lines
 
 
-def _tests_table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -> list[str]:
+def _status_lines(spec: SweepSpec, summary: dict[str, Any]) -> list[str]:
+    """Run status per policy: completed, timed out, stalled; the seeds left out."""
+    status, missing = summary.get("status", {}), summary.get("not_completed", {})
+    kinds = sorted({k for v in status.values() for k in v if k != "completed"})
+    head = "| policy | runs | completed | " + "".join(f"{k} | " for k in kinds)
+    lines = [head + "seeds not completed |", "|" + " --- |" * (4 + len(kinds))]
+    for p in spec.policies:
+        counts = status.get(p.name, {})
+        seeds = ", ".join(f"{m['seed']} ({m['status']})" for m in missing.get(p.name, []))
+        lines.append(
+            f"| {p.label} | {sum(counts.values())} | {counts.get('completed', 0)} | "
+            + "".join(f"{counts.get(k, 0)} | " for k in kinds)
+            + f"{seeds or '–'} |"
+        )
+    n_out = summary["runs"] - summary.get("completed_runs", summary["runs"])
+    if n_out:
+        note = (
+            f"{n_out} of {summary['runs']} runs did not complete. They have no makespan (the "
+            "mission did not finish by the scenario's max_time_s, or stalled) and their other "
+            "metrics measure a cut-off mission, so every mean, interval and test below is over "
+            "completed runs only, and a paired comparison uses only seeds both policies "
+            "completed. Leaving them out flatters the policy that failed to finish: read each "
+            "mean with its completed count."
+        )
+    else:
+        note = f"All {summary['runs']} runs completed."
+    return [*lines, "", note]
+
+
+def _paired_table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -> list[str]:
     labels = {p.name: p.short for p in spec.policies}
     lines = [
-        "| metric | a vs b | mean a−b | Welch p | Mann–Whitney p | paired t p | Wilcoxon p "
-        "| Cohen's d | r |",
+        "| metric | a vs b | seeds paired | mean a−b per seed (95% CI) | a lower / b lower "
+        "| paired t p (raw) | paired t p (Holm adj.) | Wilcoxon p (raw) "
+        "| Wilcoxon p (Holm adj.) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for col in columns:
+        for c in summary["metrics"][col]["pairwise"]:
+            lo, hi = c["paired_ci95"]
+            ci = "" if lo is None else f" ({fmt_num(lo, 2)} to {fmt_num(hi, 2)})"
+            star = " *" if c["significant_paired"] else ""
+            lines.append(
+                f"| `{col}` | {labels[c['a']]} vs {labels[c['b']]} | {c['n_pairs']}"
+                f" | {fmt_num(c['paired_mean_diff'], 2)}{ci} | {c['a_lower']} / {c['b_lower']}"
+                f" | {fmt_pv(c['paired_t_p_raw'])} | {fmt_pv(c['paired_t_p_adj'])}{star}"
+                f" | {fmt_pv(c['wilcoxon_p_raw'])} | {fmt_pv(c['wilcoxon_p_adj'])} |"
+            )
+    return lines
+
+
+def _unpaired_table(spec: SweepSpec, summary: dict[str, Any], columns: list[str]) -> list[str]:
+    labels = {p.name: p.short for p in spec.policies}
+    lines = [
+        "| metric | a vs b | mean a−b | Welch p (raw) | Welch p (Holm adj.) "
+        "| Mann–Whitney p (raw) | Mann–Whitney p (Holm adj.) | Cohen's d | r |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for col in columns:
         for c in summary["metrics"][col]["pairwise"]:
             d = "–" if c["cohen_d"] is None else f"{c['cohen_d']:.2f}"
             r = "–" if c["rank_biserial"] is None else f"{c['rank_biserial']:.2f}"
-            star = " *" if c["significant"] else ""
+            star = " *" if c["significant_welch"] else ""
             lines.append(
                 f"| `{col}` | {labels[c['a']]} vs {labels[c['b']]} | {fmt_num(c['mean_diff'], 2)}"
-                f" | {fmt_p(c['welch_p_holm'])}{star} | {fmt_p(c['mwu_p_holm'])}"
-                f" | {fmt_p(c.get('paired_t_p_holm'))} | {fmt_p(c.get('wilcoxon_p_holm'))}"
-                f" | {d} | {r} |"
+                f" | {fmt_pv(c['welch_p_raw'])} | {fmt_pv(c['welch_p_adj'])}{star}"
+                f" | {fmt_pv(c['mwu_p_raw'])} | {fmt_pv(c['mwu_p_adj'])} | {d} | {r} |"
             )
     return lines
+
+
+def _family_sentence(summary: dict[str, Any]) -> str:
+    corr = summary["correction"]
+    k = len(summary["policies"])
+    metrics = ", ".join(f"`{m}`" for m in corr["family_metrics"]) or "none"
+    return (
+        f"Correction family: Holm over {corr['family_size']} comparisons — the "
+        f"{k * (k - 1) // 2} pairs of policies on each of the {len(corr['family_metrics'])} "
+        f"metrics with a verdict ({metrics}); each test is adjusted separately over this "
+        "family. Columns say which p-values are raw and which Holm-adjusted."
+    )
 
 
 def render_report(spec: SweepSpec, summary: dict[str, Any]) -> str:
     scen = summary["scenario"]
     n_seeds = len(spec.seeds)
+    paired = summary.get("design") == "paired"
+    design = (
+        "Design: paired — every policy ran the same seeds (the same worlds), so verdicts use "
+        "the paired t-test on per-seed differences (Wilcoxon signed-rank as a check); Welch "
+        "and Mann–Whitney are secondary."
+        if paired
+        else "Design: unpaired — verdicts use Welch's t-test (Mann–Whitney as a check)."
+    )
     lines = [
         f"# Policy comparison: {scen['name']} scenario, {len(spec.policies)} policies × "
         f"{n_seeds} seeds",
         "",
         f"Scenario `{scen['name']}` (hash `{scen['hash']}`, scale {scen['scale']}), seeds "
         f"{seed_ranges(spec.seeds)}: {summary['runs']} runs. Means ± half-width of the 95% "
-        f"t-interval over runs; significance at α={summary['alpha']} after Holm correction.",
+        f"t-interval over completed runs; significance at α={summary['alpha']} on "
+        "Holm-adjusted p-values.",
+        "",
+        design,
+        "",
+        _family_sentence(summary),
         "",
         f"Regenerate: `{command(spec)}`",
         "",
+        "## Run status",
+        "",
+        *_status_lines(spec, summary),
+        "",
     ]
-    if summary["status"]:
-        st = "; ".join(
-            f"{spec.policy(k).label}: " + ", ".join(f"{n} {s}" for s, n in v.items())
-            for k, v in summary["status"].items()
-        )
-        lines += [f"Run status: {st}.", ""]
-    key_cols = [c for f in summary["figures"] for c in f["columns"]]
+    key_cols = list(summary["correction"]["family_metrics"])
     lines += ["## Results", "", *_table(spec, summary, key_cols), ""]
     for f in summary["figures"]:
+        caption = f.get(
+            "caption",
+            "box: quartiles and median over runs; dots: runs; diamond: mean with 95% CI.",
+        )
         lines += [
             f"## {f['title']}",
             "",
             f"![{f['title']}]({f['png']})",
             "",
-            f"[SVG]({f['svg']}) · box: quartiles and median over runs; dots: runs; "
-            "diamond: mean with 95% CI.",
+            f"[SVG]({f['svg']}) · {caption}",
             "",
         ]
         if len(f["verdict"]) == 1:
             lines += [f"**Verdict.** {f['verdict'][0]}", ""]
         else:
             lines += ["**Verdict.**", "", *[f"- {v}" for v in f["verdict"]], ""]
-    lines += [
-        "## Pairwise tests",
+    paired_sec = [
+        "## Paired tests by seed (the verdicts)" if paired else "## Paired tests by seed",
         "",
-        "All p-values Holm-adjusted over the policy pairs of each metric; `*`: Welch "
-        "significant. Paired tests match runs by seed (the same world for every policy).",
+        "Per-seed differences a−b over the seeds both policies completed; `*`: paired t "
+        "significant after adjustment. " + _family_sentence(summary),
+        "",
+        *_paired_table(spec, summary, key_cols),
         "",
     ]
-    lines += [*_tests_table(spec, summary, key_cols), ""]
-    lines += ["## All metrics", "", *_table(spec, summary, list(summary["metrics"])), ""]
+    unpaired_sec = [
+        "## Unpaired tests (secondary)" if paired else "## Unpaired tests (the verdicts)",
+        "",
+        "Runs as independent samples, ignoring that the policies share seeds; `*`: Welch "
+        "significant after adjustment (same family).",
+        "",
+        *_unpaired_table(spec, summary, key_cols),
+        "",
+    ]
+    lines += [*paired_sec, *unpaired_sec] if paired else unpaired_sec
+    lines += [
+        "## All metrics",
+        "",
+        "Metrics without a verdict: their tests, in summary.json, are Holm-adjusted over their "
+        "own pairs only.",
+        "",
+        *_table(spec, summary, list(summary["metrics"])),
+        "",
+    ]
     lines += ["## Method", "", summary["tests"] + ".", ""]
     return "\n".join(lines)

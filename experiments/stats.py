@@ -1,7 +1,8 @@
 """The statistics of a policy comparison: descriptive summaries, tests, corrections, effects.
 
 Pure functions on plain sequences, so they are checked against scipy on known data. Runs
-are the unit of analysis: one number per run and metric, seeds independent.
+are the unit of the unpaired tests; when every policy ran the same seeds (a sweep always
+does), the per-seed differences are the unit of the paired tests, which then decide.
 """
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -151,40 +152,87 @@ def _ok(v: float | None) -> bool:
     return v is not None and math.isfinite(v)
 
 
+TESTS = ("welch", "mwu", "paired_t", "wilcoxon")
+"""The four tests of a comparison; each has `<test>_p_raw` and `<test>_p_adj`."""
+
+
+def paired_diffs(a: Sequence[float | None], b: Sequence[float | None]) -> np.ndarray:
+    """a[i] − b[i] at every position (seed) where both have a value."""
+    out = [float(x) - float(y) for x, y in zip(a, b, strict=True) if _ok(x) and _ok(y)]  # type: ignore[arg-type]
+    return np.asarray(out, dtype=float)
+
+
 @dataclass(frozen=True)
 class Comparison:
-    """One metric, one pair of policies: `a` minus `b`."""
+    """One metric, one pair of policies: `a` minus `b`.
+
+    Every p-value is labelled: `_p_raw` is the test's own, `_p_adj` is Holm-adjusted over
+    the family the comparison belongs to (set by whoever builds the family: `pairwise` uses
+    the pairs of one metric, `adjust_family` any set of metrics' pairs).
+    """
 
     a: str
     b: str
     n_a: int
     n_b: int
     mean_diff: float | None
-    welch_p: float | None
-    welch_p_holm: float | None
+    welch_p_raw: float | None
+    welch_p_adj: float | None
     mwu_u: float | None
-    mwu_p: float | None
-    mwu_p_holm: float | None
+    mwu_p_raw: float | None
+    mwu_p_adj: float | None
     cohen_d: float | None
     rank_biserial: float | None
     n_pairs: int = 0
-    paired_t_p: float | None = None
-    paired_t_p_holm: float | None = None
-    wilcoxon_p: float | None = None
-    wilcoxon_p_holm: float | None = None
+    paired_t_p_raw: float | None = None
+    paired_t_p_adj: float | None = None
+    wilcoxon_p_raw: float | None = None
+    wilcoxon_p_adj: float | None = None
+    paired_mean_diff: float | None = None
+    paired_ci95: tuple[float | None, float | None] = (None, None)
+    paired_median_diff: float | None = None
+    a_lower: int = 0  # seeds on which a's value is below b's
+    b_lower: int = 0
+
+    @property
+    def paired_design(self) -> bool:
+        """Runs matched by seed and enough pairs to test: the paired test decides."""
+        return self.paired_t_p_raw is not None
+
+    @property
+    def primary_test(self) -> str:
+        """The verdict's test: paired t on per-seed differences if paired, else Welch."""
+        return "paired_t" if self.paired_design else "welch"
+
+    @property
+    def check_test(self) -> str:
+        """The rank test that must agree with the primary one (flagged where it does not)."""
+        return "wilcoxon" if self.paired_design else "mwu"
+
+    def p_adj(self, test: str) -> float | None:
+        value: float | None = getattr(self, f"{test}_p_adj")
+        return value
 
     @property
     def significant(self) -> bool:
-        """The headline call: Holm-adjusted Welch p below α."""
-        return self.welch_p_holm is not None and self.welch_p_holm < ALPHA
+        """The verdict: the primary test's adjusted p below α."""
+        p = self.p_adj(self.primary_test)
+        return p is not None and p < ALPHA
+
+    @property
+    def significant_welch(self) -> bool:
+        return self.welch_p_adj is not None and self.welch_p_adj < ALPHA
 
     @property
     def significant_paired(self) -> bool:
-        return self.paired_t_p_holm is not None and self.paired_t_p_holm < ALPHA
+        return self.paired_t_p_adj is not None and self.paired_t_p_adj < ALPHA
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
+        d["paired_ci95"] = list(self.paired_ci95)
+        d["primary_test"] = self.primary_test
         d["significant"] = self.significant
+        d["significant_welch"] = self.significant_welch
         d["significant_paired"] = self.significant_paired
         return d
 
@@ -194,43 +242,77 @@ def pairwise(
 ) -> list[Comparison]:
     """Every pair of groups (in the given order), Holm-corrected within this metric.
 
-    The family is the k·(k−1)/2 pairs of one metric; each test's p-values are corrected
-    separately. With `aligned` (position i of every group is the same seed) the paired
-    tests are added.
+    The family here is the k·(k−1)/2 pairs of one metric; each test's p-values are corrected
+    separately (`adjust_family` widens the family over several metrics). With `aligned`
+    (position i of every group is the same seed) the paired tests and the per-seed
+    differences are added.
     """
     names = list(groups)
-    pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
-    raw = []
-    for a, b in pairs:
-        x, y = _clean(groups[a]), _clean(groups[b])
-        mw = mann_whitney(x, y)
-        diff = float(x.mean() - y.mean()) if x.size and y.size else None
-        rb = rank_biserial(mw[0], x.size, y.size) if mw else None
-        pr = paired(groups[a], groups[b]) if aligned else (0, None, None)
-        raw.append((a, b, x.size, y.size, diff, welch_p(x, y), mw, cohen_d(x, y), rb, pr))
-    wh = holm([r[5] for r in raw])
-    mh = holm([r[6][1] if r[6] else None for r in raw])
-    th = holm([r[9][1] for r in raw])
-    xh = holm([r[9][2] for r in raw])
-    return [
-        Comparison(
-            a=a,
-            b=b,
-            n_a=int(na),
-            n_b=int(nb),
-            mean_diff=diff,
-            welch_p=wp,
-            welch_p_holm=wh[i],
-            mwu_u=mw[0] if mw else None,
-            mwu_p=mw[1] if mw else None,
-            mwu_p_holm=mh[i],
-            cohen_d=d,
-            rank_biserial=rb,
-            n_pairs=pr[0],
-            paired_t_p=pr[1],
-            paired_t_p_holm=th[i],
-            wilcoxon_p=pr[2],
-            wilcoxon_p_holm=xh[i],
+    out = []
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            out.append(_compare(a, b, groups[a], groups[b], aligned))
+    return adjust_family([out])[0]
+
+
+def _compare(
+    a: str, b: str, ga: Sequence[float | None], gb: Sequence[float | None], aligned: bool
+) -> Comparison:
+    x, y = _clean(ga), _clean(gb)
+    mw = mann_whitney(x, y)
+    c = Comparison(
+        a=a,
+        b=b,
+        n_a=int(x.size),
+        n_b=int(y.size),
+        mean_diff=float(x.mean() - y.mean()) if x.size and y.size else None,
+        welch_p_raw=welch_p(x, y),
+        welch_p_adj=None,
+        mwu_u=mw[0] if mw else None,
+        mwu_p_raw=mw[1] if mw else None,
+        mwu_p_adj=None,
+        cohen_d=cohen_d(x, y),
+        rank_biserial=rank_biserial(mw[0], x.size, y.size) if mw else None,
+    )
+    if not aligned:
+        return c
+    n, t_p, w_p = paired(ga, gb)
+    diffs = paired_diffs(ga, gb)
+    d = describe(diffs)
+    return replace(
+        c,
+        n_pairs=n,
+        paired_t_p_raw=t_p,
+        wilcoxon_p_raw=w_p,
+        paired_mean_diff=d.mean,
+        paired_ci95=(d.ci_low, d.ci_high),
+        paired_median_diff=d.median,
+        a_lower=int((diffs < 0).sum()),
+        b_lower=int((diffs > 0).sum()),
+    )
+
+
+def adjust_family(families: Sequence[Sequence[Comparison]]) -> list[list[Comparison]]:
+    """Holm-adjust each test's raw p-values over every comparison of `families` together.
+
+    The family is the union (e.g. every pair of policies on every metric a report draws
+    verdicts on); the result keeps the input's nesting. A missing p-value stays missing and
+    does not count towards the family's size.
+    """
+    flat = [c for fam in families for c in fam]
+    adjusted = {t: holm([getattr(c, f"{t}_p_raw") for c in flat]) for t in TESTS}
+    new = [
+        replace(
+            c,
+            welch_p_adj=adjusted["welch"][i],
+            mwu_p_adj=adjusted["mwu"][i],
+            paired_t_p_adj=adjusted["paired_t"][i],
+            wilcoxon_p_adj=adjusted["wilcoxon"][i],
         )
-        for i, (a, b, na, nb, diff, wp, mw, d, rb, pr) in enumerate(raw)
+        for i, c in enumerate(flat)
     ]
+    out, at = [], 0
+    for fam in families:
+        out.append(new[at : at + len(fam)])
+        at += len(fam)
+    return out

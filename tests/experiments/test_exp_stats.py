@@ -90,7 +90,7 @@ def test_pairwise_corrects_within_the_metric() -> None:
     out = pairwise(groups)
     assert [(c.a, c.b) for c in out] == [("p1", "p2"), ("p1", "p3"), ("p2", "p3")]
     raw = [welch_p(groups[c.a], groups[c.b]) for c in out]
-    assert [c.welch_p for c in out] == raw
-    assert [c.welch_p_holm for c in out] == holm(raw)
+    assert [c.welch_p_raw for c in out] == raw
+    assert [c.welch_p_adj for c in out] == holm(raw)
     assert out[1].significant and not out[0].significant
     assert out[1].cohen_d is not None and out[1].cohen_d < 0
