@@ -172,11 +172,11 @@ def build_paired_figure(
     ax.set_xlim(0.4, k + 0.75)
     lo_y, hi_y = ax.get_ylim()
     span = hi_y - lo_y or 1.0
-    ax.set_ylim(lo_y, hi_y + 0.14 * span)
+    ax.set_ylim(lo_y, hi_y + 0.22 * span)  # headroom for the notes
     for i, c in enumerate(comps):
         ax.text(
             pos[i] + 0.07,
-            hi_y + 0.05 * span,
+            hi_y + 0.04 * span,
             c.note,
             ha="center",
             va="bottom",

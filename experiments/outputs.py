@@ -133,7 +133,7 @@ def paired_figure(
         )
     name = f"{fs.name}_paired"
     fig = build_paired_figure(
-        f"{fs.title}: per-seed difference\nfrom {best.label}, same seed",
+        f"{fs.title}: difference from {best.label}\non the same seed",
         fs.quantity,
         fs.unit,
         best.short,
