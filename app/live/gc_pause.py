@@ -18,7 +18,7 @@ from time import perf_counter
 SWITCH_INTERVAL_S = 0.0005
 
 
-class Heap:
+class GcPause:
     """Freeze old objects while busy; unfreeze and collect when idle."""
 
     def __init__(self, every_s: float = 1.0) -> None:

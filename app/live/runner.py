@@ -20,7 +20,7 @@ from typing import Any
 
 from app.db.models import utcnow
 from app.live.gate import Gate
-from app.live.gc_pause import Heap
+from app.live.gc_pause import GcPause
 from app.live.hub import Hub
 from app.live.stepper import Stepper
 from app.services.recorder import Recorder
@@ -134,14 +134,14 @@ class MissionRunner:
             settings.slice_ms / 1000,
             settings.max_lag_s,
         )
-        self.heap = Heap()
+        self.gc_pause = GcPause()
         self._tasks: list[asyncio.Task[None]] = []
         self._pending: set[asyncio.Task[Any]] = set()
 
     # -- lifecycle ---------------------------------------------------------------------
 
     async def start(self) -> None:
-        self.heap.start()
+        self.gc_pause.start()
         self.stepper.start()
         self._tasks = [
             asyncio.create_task(self._tick_forever(), name="regolith-tick"),
@@ -167,7 +167,7 @@ class MissionRunner:
             for lm in self.live.values():
                 lm.mission.close()
         self.live.clear()
-        self.heap.stop()
+        self.gc_pause.stop()
 
     async def drain(self) -> None:
         while self._pending:
@@ -361,7 +361,7 @@ class MissionRunner:
         while True:
             await asyncio.sleep(TICK_S)
             self._maintain()
-            self.heap.tick(busy=any(lm.runnable for lm in self.live.values()))
+            self.gc_pause.tick(busy=any(lm.runnable for lm in self.live.values()))
 
     async def _frames_forever(self) -> None:
         period = 1.0 / self.settings.frame_hz
