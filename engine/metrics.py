@@ -37,6 +37,8 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
     return {
         "sites_found": field.sites_found,
         "sites_total": len(field.sites),
+        # per site in world order: when a scout first saw it (None: not yet found)
+        "sites_found_at": [s.found_at for s in field.sites],
         "minerals_delivered": field.delivered,
         "minerals_total": field.minerals_total,
         "distance": distance,
