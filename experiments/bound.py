@@ -5,13 +5,26 @@ physics (speeds, the straight line as the shortest path), the task chain (find �
 transfer → haul → unload), the scouts' spiral (docs/spec.md §7, fixed before any auction) and the
 robots' start ring. docs/experiments.md derives each term; `makespan / bound` then says how
 far a run is from the best any allocator could possibly do.
+
+Two bounds come from the same terms. The *a-priori* bound (`lower_bound(w)`) knows only the
+world: for each site it uses the earliest time any scout on its spiral could have found it.
+The *per-run* bound (`run_bound(w, found_at)`) puts each site's actual discovery time in that
+run in their place. It is a valid bound on that run's makespan: a site cannot be dug before
+it is found (only a scout's scan finds it, and no excavate auction exists before), and the
+mission does not end before every site is found, so the actual times are earliest-find times
+of that run exactly; every other term is physics (speeds, straight lines, the task chain, the
+team sizes) and holds for any schedule given those times. It only says how far the run is
+from the best any allocator could do *with the discoveries as they happened*; since the
+scouts' spiral is fixed before any auction, only the planner's detours around craters make
+them differ between policies.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -46,6 +59,7 @@ class Bound:
     value: float
     terms: dict[str, float]  # every term; the bound is their maximum
     found_s: tuple[float, ...]  # per site: no scout can have found it earlier
+    world: BoundWorld | None = field(default=None, compare=False, repr=False)  # for run_bound
 
 
 def found_bounds(w: BoundWorld) -> np.ndarray:
@@ -177,10 +191,16 @@ def _release_bound(
     return best
 
 
-def lower_bound(w: BoundWorld) -> Bound:
-    """The largest of the search, chain, haulage and digging bounds (each a valid bound)."""
+def lower_bound(w: BoundWorld, found_s: Sequence[float] | None = None) -> Bound:
+    """The largest of the search, chain, haulage and digging bounds (each a valid bound).
+
+    `found_s`, per site, times before which it cannot have been found: by default the
+    a-priori `found_bounds(w)`; `run_bound` passes one run's actual discovery times.
+    """
     px, py = w.plant
-    found = found_bounds(w)
+    found = found_bounds(w) if found_s is None else np.asarray(found_s, dtype=float)
+    if found.shape != (len(w.sites),):
+        raise ValueError(f"found_s: {len(w.sites)} sites, got {found.shape}")
     d = np.asarray([math.hypot(x - px, y - py) for x, y, _ in w.sites])
     m = np.asarray([n for _, _, n in w.sites], dtype=int)
     sigma, r = w.start_spread, w.scan_radius
@@ -212,7 +232,23 @@ def lower_bound(w: BoundWorld) -> Bound:
         dig_start, np.full(len(site), dt), w.excavators, back[site], zero
     )
     terms = {k: float(v) for k, v in terms.items()}
-    return Bound(max(terms.values()), terms, tuple(float(f) for f in found))
+    return Bound(max(terms.values()), terms, tuple(float(f) for f in found), w)
+
+
+def run_bound(w: BoundWorld, found_at: Sequence[float | None] | None) -> Bound | None:
+    """The per-run bound: the same terms with the run's actual discovery times (the engine's
+    `sites_found_at`, in world order) as each site's earliest-find time.
+
+    None unless every site was found (a run that did not complete has no makespan to bound)
+    or when the times do not fit the world. Valid for that run because nothing can be dug
+    before it is found and the mission ends only once every site is found; every other term
+    is physics (see the module docstring). Meant for fault-free runs, like every term here.
+    """
+    if found_at is None or len(found_at) != len(w.sites):
+        return None
+    if any(not isinstance(t, (int, float)) or not math.isfinite(t) for t in found_at):
+        return None
+    return lower_bound(w, [float(t) for t in found_at])  # type: ignore[arg-type]
 
 
 def bound_world(scenario: Any, seed: int) -> BoundWorld:
@@ -270,19 +306,55 @@ def engine_bound(scenario: Any, seed: int) -> Bound:
 def bound_columns(
     rows: list[dict[str, Any]], scenario: Any, bound_fn: BoundFn
 ) -> list[dict[str, Any]]:
-    """Add lower_bound_s, its binding term and makespan_ratio to each run; per-seed terms."""
+    """Add both bounds and both ratios to each run; return the a-priori terms per seed.
+
+    Per run: `lower_bound_s` is the per-run bound (`run_bound` with the run's
+    `sites_found_at`; None when the run did not complete, its discovery times are missing or
+    `bound_fn` gives no world), `lower_bound_term` its binding term, `makespan_ratio` the
+    makespan over it; `lower_bound_apriori_s` and `makespan_ratio_apriori` are the same for
+    the a-priori bound of the run's seed. Ratios only for completed runs.
+    """
     per_seed: dict[int, Bound] = {}
     for row in rows:
         seed = int(row["seed"])
         if seed not in per_seed:
             per_seed[seed] = bound_fn(scenario, seed)
         b = per_seed[seed]
-        row["lower_bound_s"] = b.value
-        row["lower_bound_term"] = max(b.terms, key=lambda k: b.terms[k])
         mk = row.get("makespan_s")
         ok = isinstance(mk, (int, float)) and row.get("status", "completed") == "completed"
-        row["makespan_ratio"] = float(mk) / b.value if ok and b.value > 0 else None  # type: ignore[arg-type]
+        rb = (
+            run_bound(b.world, _found_at(row.get("sites_found_at")))
+            if ok and b.world is not None
+            else None
+        )
+        row["lower_bound_s"] = rb.value if rb is not None else None
+        row["lower_bound_apriori_s"] = b.value
+        row["lower_bound_term"] = _binding(rb) if rb is not None else None
+        row["makespan_ratio"] = _ratio(mk, rb.value if rb is not None else None) if ok else None
+        row["makespan_ratio_apriori"] = _ratio(mk, b.value) if ok else None
     return [
-        {"seed": seed, "lower_bound_s": b.value, **{f"{k}_s": v for k, v in b.terms.items()}}
+        {
+            "seed": seed,
+            "lower_bound_apriori_s": b.value,
+            **{f"{k}_s": v for k, v in b.terms.items()},
+        }
         for seed, b in sorted(per_seed.items())
     ]
+
+
+def _binding(b: Bound) -> str:
+    return max(b.terms, key=lambda k: b.terms[k])
+
+
+def _ratio(makespan: Any, bound: float | None) -> float | None:
+    return float(makespan) / bound if bound is not None and bound > 0 else None
+
+
+def _found_at(value: Any) -> list[Any] | None:
+    """A run's sites_found_at: the engine's list, or runs.csv's JSON text of it."""
+    if isinstance(value, str):
+        try:
+            value = json.loads(value)
+        except ValueError:
+            return None
+    return list(value) if isinstance(value, (list, tuple)) else None

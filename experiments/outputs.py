@@ -33,8 +33,10 @@ def write_outputs(
 ) -> list[Path]:
     """Regenerate every derived file from the journal's records (idempotent).
 
-    With `bound_fn` (the engine's world → makespan lower bound) each run also gets
-    lower_bound_s and makespan_ratio, and bounds.csv lists every term per seed.
+    With `bound_fn` (the engine's world → makespan lower bound) each run also gets the
+    per-run bound (lower_bound_s, makespan_ratio: the run's own discovery times) and the
+    a-priori one (lower_bound_apriori_s, makespan_ratio_apriori), and bounds.csv lists every
+    a-priori term per seed.
     """
     out_dir = Path(out_dir)
     rows = run_rows(spec, records)

@@ -20,7 +20,13 @@ from experiments.journal import MANIFEST, Journal
 
 log = logging.getLogger("regolith.sweeps")
 
-_FROM_CSV = ("lower_bound_s", "lower_bound_term", "makespan_ratio")
+_FROM_CSV = (
+    "lower_bound_s",
+    "lower_bound_term",
+    "makespan_ratio",
+    "lower_bound_apriori_s",
+    "makespan_ratio_apriori",
+)
 
 
 def set_aside(out_dir: Path) -> None:

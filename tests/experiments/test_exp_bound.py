@@ -4,10 +4,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Any
 
 import pytest
 
-from experiments.bound import BoundWorld, found_bounds, lower_bound, mst_length
+from experiments.bound import (
+    Bound,
+    BoundWorld,
+    bound_columns,
+    found_bounds,
+    lower_bound,
+    mst_length,
+    run_bound,
+)
 
 BASE = BoundWorld(
     plant=(0.0, 0.0),
@@ -61,3 +70,40 @@ def test_terms_by_hand() -> None:
 def test_unreached_site_falls_back_to_reach() -> None:
     w = replace(BASE, sites=((0.0, 30.0, 1),))
     assert found_bounds(w)[0] == pytest.approx(30 - 2)
+
+
+def test_run_bound_uses_the_actual_discovery_times() -> None:
+    apriori = lower_bound(BASE)
+    assert run_bound(BASE, list(apriori.found_s)).value == apriori.value  # type: ignore[union-attr]
+    late = run_bound(BASE, [50.0])
+    assert late is not None and late.terms["search_spiral"] == 50.0
+    # found at 50: dug twice (4 s each with the transfer), then hauled home and unloaded
+    assert late.terms["chain"] == pytest.approx(50 + 2 * 4 + math.hypot(10, 1) + 1)
+    assert run_bound(BASE, [None]) is None and run_bound(BASE, []) is None
+
+
+def test_bound_columns_per_run_and_apriori() -> None:
+    def fn(scenario: object, seed: int) -> Bound:
+        return lower_bound(BASE)
+
+    rows: list[dict[str, Any]] = [
+        {"seed": 0, "status": "completed", "makespan_s": 100.0, "sites_found_at": "[50.0]"},
+        {"seed": 0, "status": "completed", "makespan_s": 90.0, "sites_found_at": [40.0]},
+        {"seed": 0, "status": "timeout", "makespan_s": None, "sites_found_at": "[null]"},
+        {"seed": 0, "status": "completed", "makespan_s": 90.0},  # no discovery times
+    ]
+    per_seed = bound_columns(rows, None, fn)
+    apriori = lower_bound(BASE).value
+    late = run_bound(BASE, [50.0])
+    assert late is not None
+    assert rows[0]["lower_bound_s"] == late.value and rows[0]["lower_bound_term"] == "haul_release"
+    assert rows[0]["makespan_ratio"] == 100.0 / late.value
+    assert rows[0]["makespan_ratio_apriori"] == 100.0 / apriori
+    assert rows[1]["lower_bound_s"] < rows[0]["lower_bound_s"]
+    for row in rows:
+        assert row["lower_bound_apriori_s"] == apriori
+    assert rows[2]["lower_bound_s"] is rows[2]["makespan_ratio"] is None
+    assert rows[2]["makespan_ratio_apriori"] is None
+    assert rows[3]["lower_bound_s"] is None and rows[3]["makespan_ratio_apriori"] is not None
+    assert per_seed == [{"seed": 0, "lower_bound_apriori_s": apriori, **{
+        f"{k}_s": v for k, v in lower_bound(BASE).terms.items()}}]  # fmt: skip

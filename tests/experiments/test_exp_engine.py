@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from engine import POLICY_NAMES, parse_scenario, reference_scenario, resolve_policy, run_mission
-from experiments.bound import engine_bound
+from experiments.bound import engine_bound, run_bound
 from experiments.runner import run_sweep
 from experiments.spec import make_spec, parse_policies, parse_seeds
 
@@ -38,9 +38,13 @@ def test_dask_cluster_and_local_pool_write_the_same_runs_csv(tmp_path: Path) -> 
     hosts = {r["pid"] for r in dask.records} | {r["pid"] for r in local.records}
     assert len(hosts) >= 2  # the runs really happened in worker processes
     rows = (tmp_path / "local" / "runs.csv").read_text().splitlines()
-    assert len(rows) == 5 and "makespan_ratio" in rows[0]
-    for rec in local.records:  # the bound holds on the reference scenario too
-        assert engine_bound(spec.scenario, rec["seed"]).value <= rec["metrics"]["makespan_s"]
+    assert len(rows) == 5 and "makespan_ratio" in rows[0] and "makespan_ratio_apriori" in rows[0]
+    for rec in local.records:  # both bounds hold on the reference scenario too
+        b = engine_bound(spec.scenario, rec["seed"])
+        assert b.value <= rec["metrics"]["makespan_s"]
+        assert b.world is not None
+        per_run = run_bound(b.world, rec["metrics"]["sites_found_at"])
+        assert per_run is not None and per_run.value <= rec["metrics"]["makespan_s"]
 
 
 SMALL: dict[str, Any] = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
