@@ -77,6 +77,7 @@ def summary(m: dict[str, Any]) -> str:
         f"  sites found     {m['sites_found']}/{m['sites_total']}",
         f"  minerals        {m['minerals_delivered']}/{m['minerals_total']} delivered",
         "  distance (m)    " + ", ".join(f"{k} {v:.0f}" for k, v in m["distance"].items()),
+        "  lower bound     " + _bound_text(m),
     ]
     for kind, st in m["auction_open_s"].items():
         if st["count"]:
@@ -96,6 +97,49 @@ def summary(m: dict[str, Any]) -> str:
         )
     lines.append(f"  wall time       {m['wall_s']:.3f} s")
     return "\n".join(lines)
+
+
+def _bound_text(m: dict[str, Any]) -> str:
+    """Both makespan lower bounds and the makespan over each, or why there are none."""
+    lb, ap = m.get("lower_bound_s"), m.get("lower_bound_apriori_s")
+    if lb is None and ap is None:
+        return "- (only for a completed run without faults or operator actions)"
+    parts = []
+    for value, ratio, what in (
+        (lb, m.get("makespan_ratio"), "per run"),
+        (ap, m.get("makespan_ratio_apriori"), "a priori"),
+    ):
+        if value is not None:
+            times = f" (makespan {ratio:.2f}×)" if ratio is not None else ""
+            parts.append(f"{value:.1f} s {what}{times}")
+    return ", ".join(parts)
+
+
+def add_bounds(metrics: dict[str, Any], scen: Scenario, seed: int, faults: bool) -> None:
+    """The run's makespan lower bounds (experiments/bound.py), as a sweep's runs.csv has them.
+
+    `lower_bound_s` is the per-run bound (the run's own site discovery times),
+    `lower_bound_apriori_s` the world's a-priori one; each with `makespan_ratio…`. Null for a
+    run that did not complete, and with faults or operator actions (the bound assumes the
+    scenario's team, fault-free). On a lossy or slow bus the a-priori bound does not rely on
+    the scouts' spiral (as in a sweep); the per-run bound does not need it.
+    """
+    keys = ("lower_bound_s", "lower_bound_apriori_s", "lower_bound_term")
+    keys += ("makespan_ratio", "makespan_ratio_apriori")
+    metrics.update(dict.fromkeys(keys))
+    if faults or metrics.get("status") != "completed":
+        return
+    from experiments.bound import bound_world, lower_bound, run_bound
+
+    world = bound_world(scen, seed)
+    apriori, per_run = lower_bound(world), run_bound(world, metrics.get("sites_found_at"))
+    mk = float(metrics["makespan_s"])
+    metrics["lower_bound_apriori_s"] = apriori.value
+    metrics["makespan_ratio_apriori"] = mk / apriori.value if apriori.value > 0 else None
+    if per_run is not None:
+        metrics["lower_bound_s"] = per_run.value
+        metrics["lower_bound_term"] = max(per_run.terms, key=lambda k: per_run.terms[k])
+        metrics["makespan_ratio"] = mk / per_run.value if per_run.value > 0 else None
 
 
 def _finite(v: Any) -> Any:
@@ -151,6 +195,7 @@ def run(
         raise fail_usage(str(exc)) from None
     # the machine's time, reported beside the mission's figures (never part of them)
     metrics["wall_s"] = time.perf_counter() - t0
+    add_bounds(metrics, scen, seed, faults=bool(actions))
     if json_out:
         typer.echo(json.dumps(_finite(metrics), sort_keys=True))
     else:

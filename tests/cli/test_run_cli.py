@@ -14,7 +14,8 @@ REQUIRED = {
     "policy", "seed", "completed", "makespan_s", "sites_found", "sites_total",
     "minerals_delivered", "minerals_total", "distance", "auction_open_s", "auctions", "bids",
     "declines", "messages", "wall_s", "failures", "reauctions", "minerals_dropped",
-    "minerals_recovered", "messages_lost",
+    "minerals_recovered", "messages_lost", "sites_found_at", "lower_bound_s",
+    "lower_bound_apriori_s", "lower_bound_term", "makespan_ratio", "makespan_ratio_apriori",
 }  # fmt: skip
 
 
@@ -36,6 +37,11 @@ def test_json_is_one_object_with_every_key_and_repeats_but_for_wall_time():
     assert set(a["distance"]) == {"scout", "excavator", "hauler"}
     assert set(a["auction_open_s"]["scout_excavator"]) == {"count", "mean", "p50", "max"}
     assert a.pop("wall_s") > 0 and b.pop("wall_s") > 0  # the machine's time, beside the figures
+    # both makespan lower bounds: the run's own discovery times, and the world's a priori
+    assert len(a["sites_found_at"]) == a["sites_total"] and None not in a["sites_found_at"]
+    assert a["lower_bound_apriori_s"] < a["lower_bound_s"] <= a["makespan_s"]
+    assert a["makespan_ratio"] == a["makespan_s"] / a["lower_bound_s"]
+    assert a["makespan_ratio_apriori"] == a["makespan_s"] / a["lower_bound_apriori_s"]
     assert a == b
 
 
@@ -49,12 +55,15 @@ def test_faults_on_the_command_line_reach_the_json():
     m = json.loads(out.stdout)
     assert m["completed"] and m["minerals_delivered"] == 64
     assert m["failures"] == 1 and m["messages_lost"] > 0
+    assert m["lower_bound_s"] is None and m["lower_bound_apriori_s"] is None  # faults: none
 
 
 def test_the_human_summary_names_the_figures():
     out = CliRunner().invoke(cli, ["run", "--policy", "3", "--seed", "0"])
     assert out.exit_code == 0
     assert "makespan" in out.output and "64/64 delivered" in out.output
+    bound = next(ln for ln in out.output.splitlines() if "lower bound" in ln)
+    assert "per run" in bound and "a priori" in bound
 
 
 @pytest.mark.parametrize(
