@@ -26,7 +26,19 @@ class RobotView(Protocol):
 
     rtype: str
 
-    def in_coalition(self) -> bool: ...
+    def paired(self) -> bool:
+        """A hauler paired with a live excavator under a coalition policy (Policy 2)."""
+        ...
+
+    def partner_working(self) -> bool:
+        """That partner has a site to work (the hauler follows it there)."""
+        ...
+
+    def stranded(self, a: OpenAuction) -> bool:
+        """Nobody but a paired hauler could take this transport: its excavator has no live
+        partner and no unpaired hauler is alive, as far as this robot knows."""
+        ...
+
     def cost_to(self, a: OpenAuction) -> float: ...
     def eta_to(self, a: OpenAuction) -> float: ...
 

@@ -59,14 +59,9 @@ class Policy:
     description = ""  # one line
     decentralized = True  # False: some unit with global knowledge decides (the baseline)
 
-    def bid_targets(
-        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
-    ) -> list[OpenAuction]:
-        """Of the open auctions the robot can serve, given in opening order, those it bids in now.
-
-        `in_coalition` is true for a hauler that is paired with a live excavator under a
-        coalition policy.
-        """
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
+        """Of the open auctions the robot can serve, given in opening order, those it bids in now
+        (the view says whether it is a hauler paired under a coalition policy, and more)."""
         raise NotImplementedError
 
     def bids(self, view: RobotView, targets: Sequence[OpenAuction], mem: BidMemory) -> Bids:
@@ -176,9 +171,7 @@ class FirstComeFirstServed(Policy):
     label, colour = "FCFS", "#56b4e9"
     description = "bid only in the auction that opened first"
 
-    def bid_targets(
-        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
-    ) -> list[OpenAuction]:
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         return earliest(auctions)
 
 
@@ -199,17 +192,24 @@ def coalition_partner(name: str) -> str | None:
 
 @register_policy
 class AnticipatoryCoalitions(FirstComeFirstServed):
-    """Policy 2: paired haulers follow their excavator and never bid; others bid as Policy 1."""
+    """Policy 2, as specified: a paired hauler follows its excavator and carries only its
+    minerals, with no auction; everyone else bids as Policy 1.
+
+    One narrow exception keeps a mission from deadlocking: an excavator with no live partner
+    when no unpaired hauler is alive (more excavators than haulers, or haulers lost) would
+    never get a transport, so a paired hauler whose own partner has no site bids, as Policy 1,
+    in that excavator's transports and in no other auction.
+    """
 
     number, name = 2, "coalition"
     label, colour = "Coalitions", "#e69f00"
     description = "excavator-k and hauler-k work as a pair; the rest bid as Policy 1"
 
-    def bid_targets(
-        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
-    ) -> list[OpenAuction]:
-        if rtype == "hauler" and in_coalition:
-            return []
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
+        if view.rtype == "hauler" and view.paired():
+            if view.partner_working():
+                return []
+            return earliest([a for a in auctions if view.stranded(a)])
         return earliest(auctions)
 
     def coalitions(self) -> bool:
@@ -224,9 +224,7 @@ class NearestFirst(Policy):
     label, colour = "Nearest", "#009e73"
     description = "bid in every auction; of several awards keep the nearest"
 
-    def bid_targets(
-        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
-    ) -> list[OpenAuction]:
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         return list(auctions)
 
     def collects_awards(self) -> bool:
@@ -267,9 +265,7 @@ class Lookahead(EarlyTransports):
     time_bids = True
     bid_all = True
 
-    def bid_targets(
-        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
-    ) -> list[OpenAuction]:
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         return list(auctions) if self.bid_all else earliest(auctions)
 
     def bids(self, view: RobotView, targets: Sequence[OpenAuction], mem: BidMemory) -> Bids:
@@ -293,15 +289,29 @@ class Central(EarlyTransports):
     description = "centralized oracle baseline: optimal assignment from global knowledge"
     decentralized = False  # Policy 4's early transport auctions: only the allocation differs
 
-    def bid_targets(
-        self, rtype: str, in_coalition: bool, auctions: Sequence[OpenAuction]
-    ) -> list[OpenAuction]:
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         return list(auctions)
 
     def allocator(self) -> Allocator | None:
         from engine.central import OracleAllocator
 
         return OracleAllocator()
+
+
+@register_policy
+class RelaxedCoalitions(AnticipatoryCoalitions):
+    """Policy 2 as Regolith first built it: a paired hauler whose partner has no site bids in
+    every auction like an unpaired one (docs/policies.md: the study's rule is the strict one,
+    `coalition`; this variant is kept to measure the difference)."""
+
+    number, name = 5, "coalition-relaxed"
+    label, colour = "Coalitions (relaxed)", "#cc79a7"
+    description = "Policy 2, but a paired hauler with an idle partner carries for anyone"
+
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
+        if view.rtype == "hauler" and view.paired() and view.partner_working():
+            return []
+        return earliest(auctions)
 
 
 def resolve_policy(value: str | int) -> str:

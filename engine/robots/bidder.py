@@ -94,10 +94,16 @@ class Bidder(RobotCore):
         a robot queue (under Policies 1–3, exactly `not busy()`)."""
         return self.reserved is None and self.held() <= self.ctx.policy.queue_limit(self.rtype)
 
-    def in_coalition(self) -> bool:
+    def paired(self) -> bool:
         """Paired with a live partner under a coalition policy (Policy 2)."""
         partner = self.partner
         return partner is not None and self.ctx.policy.coalitions() and self.peer_alive(partner)
+
+    def partner_working(self) -> bool:
+        return False
+
+    def stranded(self, a: OpenAuction) -> bool:
+        return False
 
     def policy_changed(self) -> None:
         """A new policy may bid in other units or by other rules: look at everything afresh."""
@@ -112,7 +118,7 @@ class Bidder(RobotCore):
         if not auctions:
             return
         policy = self.ctx.policy
-        targets = policy.bid_targets(self.rtype, self.in_coalition(), auctions)
+        targets = policy.bid_targets(self, auctions)
         busy = not self.has_room()
         situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
         mem = BidMemory(

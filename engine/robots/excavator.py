@@ -310,7 +310,7 @@ class Excavator(Robot):
         if self.partner_here is hauler:
             self.partner_here = None
 
-    def in_coalition(self) -> bool:
+    def paired(self) -> bool:
         return False  # excavators bid as Policy 1 under Policy 2
 
     def auction_ground_minerals(self) -> None:
@@ -358,6 +358,15 @@ class Excavator(Robot):
 
     def on_close_heard(self, msg: Close) -> None:
         pass
+
+    def when_free(self) -> Any:
+        """Idle: a mineral lying where I stand (my own bucket's, if I failed here) gets a
+        transport like any I find on arrival."""
+        self.auction_ground_minerals()
+        yield from super().when_free()
+
+    def on_rejoined(self) -> None:
+        self.auction_ground_minerals()
 
     def on_revoked(self) -> None:
         site = self.ctx.field.site_at(self.pos)

@@ -9,6 +9,7 @@ import simpy
 from engine.field import NEAR
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
+from engine.policies import OpenAuction, coalition_partner
 from engine.robots.base import Robot
 from engine.robots.core import Assignment
 
@@ -28,6 +29,7 @@ class Hauler(Robot):
         self.bin = 0
         self._loaded: simpy.Event | None = None
         self.partner_site: Point | None = None
+        self._partner_done: set[str] = set()  # sites my partner finished or left
         self.loading_from: Excavator | None = None  # a bucket is being emptied into my bin
 
     def load(self) -> int:
@@ -37,7 +39,7 @@ class Hauler(Robot):
         yield from self.transport(a)
 
     def when_free(self) -> Any:
-        if self.in_coalition() and self.partner_site is not None:
+        if self.following():
             yield from self.follow_partner()
         else:
             yield from super().when_free()
@@ -183,7 +185,7 @@ class Hauler(Robot):
         self.state = "travelling"
         yield from self.go_to(site)
         partner = self.partner
-        if self.queue or not self.in_coalition():
+        if self.queue or not self.following():
             return  # won a task or was released while driving: back to the main loop
         exc = self._excavator_here(lambda e: e.name == partner)
         if exc is None:
@@ -206,9 +208,22 @@ class Hauler(Robot):
             if self.current is not None:
                 self.finish(self.current)
 
-    def in_coalition(self) -> bool:
-        """Paired, and the partner has a site: while it has none, carry for anyone."""
-        return self.partner_site is not None and super().in_coalition()
+    def partner_working(self) -> bool:
+        return self.partner_site is not None
+
+    def following(self) -> bool:
+        """Paired, and the partner has a site: follow it there."""
+        return self.partner_site is not None and self.paired()
+
+    def stranded(self, a: OpenAuction) -> bool:
+        excavator_partner = coalition_partner(a.auctioneer)
+        if excavator_partner is not None and self.peer_alive(excavator_partner):
+            return False
+        for h in self.peers_of_type("hauler"):
+            mate = coalition_partner(h)
+            if h != self.name and self.peer_alive(h) and not (mate and self.peer_alive(mate)):
+                return False  # an unpaired hauler is alive: it can carry
+        return True
 
     def ready_for(self, exc: Excavator) -> bool:
         """Standing by this excavator with an empty bin, waiting for its bucket?"""
@@ -234,8 +249,26 @@ class Hauler(Robot):
             self.partner_site = msg.location
             self.wake()
 
+    def check_peers(self) -> None:
+        """Beside the liveness checks: a paired hauler that missed the Close telling it where
+        its partner works (it was down then) sees from the partner's heartbeat that it stands
+        digging at a site, and goes there."""
+        super().check_peers()
+        if self.partner is None or self.partner_site is not None or not self.paired():
+            return
+        hb = self.ctx.liveness.last_heartbeat(self.name, self.partner)
+        if (
+            hb is not None
+            and hb.state in ("digging", "waiting", "loading")
+            and hb.tasks
+            and hb.tasks[0] not in self._partner_done  # not the site it has just left
+        ):
+            self.partner_site = (hb.x, hb.y)
+            self.wake()
+
     def on_task_done_heard(self, msg: TaskDone) -> None:
         if msg.sender == self.partner and msg.task_id.startswith("excavate@"):
+            self._partner_done.add(msg.task_id)
             self.partner_site = None
             self.wake()
             self.consider_bids()

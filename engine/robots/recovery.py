@@ -143,8 +143,8 @@ class Recovery(RobotCore):
             tasks.append(info.task_id)
         for tid, alloc in self.peer_alloc.pop(peer, {}).items():
             tasks.append(tid)
-            if alloc.winner in self.down:
-                self.reauction(alloc, None)
+            if alloc.winner in self.down:  # search where its holder was last heard carrying it
+                self.reauction(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
             else:
                 self.house.allocations[tid] = alloc
         self.adopted[peer] = opened

@@ -1,6 +1,7 @@
 """The protocol's pure decisions (docs/spec.md §6, §8) on hand-made inputs."""
 
 import math
+from dataclasses import dataclass
 
 from engine.auction_rules import rank_bids, select_winner
 from engine.policies import (
@@ -9,6 +10,7 @@ from engine.policies import (
     NearestFirst,
     OpenAuction,
     PendingAward,
+    RelaxedCoalitions,
     coalition_partner,
     resolve_policy,
 )
@@ -30,26 +32,62 @@ def test_declined_bidders_are_skipped_and_ties_break_by_name():
     assert select_winner({"a": -3.0}, excluded={"a"}) is None
 
 
+@dataclass
+class View:
+    """A robot as a policy sees it (engine.bidding.RobotView), set by hand."""
+
+    rtype: str = "hauler"
+    pair: bool = False
+    working: bool = False
+    stranded_ids: tuple[str, ...] = ()
+
+    def paired(self) -> bool:
+        return self.pair
+
+    def partner_working(self) -> bool:
+        return self.working
+
+    def stranded(self, a: OpenAuction) -> bool:
+        return a.auction_id in self.stranded_ids
+
+    def cost_to(self, a: OpenAuction) -> float:
+        return 1.0
+
+    def eta_to(self, a: OpenAuction) -> float:
+        return 1.0
+
+
 def test_policy_1_bids_only_in_the_auction_that_opened_first():
     first, later = auction("y/1", 2.0), auction("x/2", 5.0)
-    assert FirstComeFirstServed().bid_targets("hauler", False, [first, later]) == [first]
+    assert FirstComeFirstServed().bid_targets(View(), [first, later]) == [first]
 
 
 def test_policy_3_bids_everywhere_and_keeps_the_nearest_award():
     a, b = auction("x/1", 1.0), auction("x/2", 2.0)
     p = NearestFirst()
-    assert set(p.bid_targets("hauler", False, [a, b])) == {a, b}
+    assert set(p.bid_targets(View(), [a, b])) == {a, b}
     assert p.collects_awards()
     best = p.choose_award([PendingAward(a, -20.0), PendingAward(b, -5.0)])
     assert best.auction is b
 
 
-def test_policy_2_paired_haulers_never_bid_others_bid_as_policy_1():
+def test_policy_2_paired_haulers_carry_only_for_their_partner_others_bid_as_policy_1():
     a, b = auction("x/1", 1.0), auction("x/2", 2.0)
     p = AnticipatoryCoalitions()
-    assert p.bid_targets("hauler", True, [a, b]) == []
-    assert p.bid_targets("hauler", False, [a, b]) == [a]
-    assert p.bid_targets("excavator", False, [a, b]) == [a]
+    assert p.bid_targets(View(pair=True, working=True), [a, b]) == []
+    assert p.bid_targets(View(pair=True, working=False), [a, b]) == []  # strictly its partner's
+    assert p.bid_targets(View(pair=False), [a, b]) == [a]
+    assert p.bid_targets(View(rtype="excavator"), [a, b]) == [a]
+    # the one exception: a transport nobody else can take (no deadlock), partner idle only
+    assert p.bid_targets(View(pair=True, stranded_ids=("x/2",)), [a, b]) == [b]
+    assert p.bid_targets(View(pair=True, working=True, stranded_ids=("x/2",)), [a, b]) == []
+
+
+def test_relaxed_policy_2_lets_a_hauler_with_an_idle_partner_carry_for_anyone():
+    a, b = auction("x/1", 1.0), auction("x/2", 2.0)
+    p = RelaxedCoalitions()
+    assert p.bid_targets(View(pair=True, working=True), [a, b]) == []
+    assert p.bid_targets(View(pair=True, working=False), [a, b]) == [a]
     assert coalition_partner("excavator-3") == "hauler-3"
     assert coalition_partner("hauler-3") == "excavator-3"
     assert coalition_partner("scout-1") is None
