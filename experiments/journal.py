@@ -2,15 +2,16 @@
 
 The journal is the only state a sweep keeps, so an interrupted sweep (Ctrl-C, a killed
 machine) loses at most the runs that were still in flight. A torn last line from a crash is
-cut off on the next open. Runs are keyed by policy, seed and scenario hash; a directory is
-bound to one scenario by its manifest (`sweep.json`).
+cut off on the next open. Runs are keyed by policy, seed and scenario hash (a grid point's
+scenario, with its overrides applied, has its own hash); a directory is bound to one
+scenario, and to a grid's parameters, by its manifest (`sweep.json`).
 """
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -92,9 +93,19 @@ class _Writer:
 
 
 def check_manifest(
-    out_dir: Path, scenario_hash: str, scenario: dict[str, Any], engine: str | None = None
+    out_dir: Path,
+    scenario_hash: str,
+    scenario: dict[str, Any],
+    engine: str | None = None,
+    grid: list[str] | None = None,
+    run_hashes: Collection[str] = (),
 ) -> None:
-    """Bind the directory to this scenario and engine build, or refuse another one's."""
+    """Bind the directory to this scenario and engine build, or refuse another one's.
+
+    A grid sweep binds it to its base scenario and its grid parameters (`grid`, the dotted
+    paths; their values may change like seeds do); its runs carry their points' scenario
+    hashes (`run_hashes`), which a journal without a manifest may hold.
+    """
     path = out_dir / MANIFEST
     if path.exists():
         try:
@@ -113,8 +124,14 @@ def check_manifest(
                 f"{out_dir} was swept with another engine build ({pinned}, this one {engine}); "
                 "results of two builds must not be mixed: use a new --out"
             )
+        found_grid = existing.get("grid")
+        if sorted(found_grid or []) != sorted(grid or []):
+            raise SweepConflict(
+                f"{out_dir} holds a sweep over {_grid_text(found_grid)}, this one is over "
+                f"{_grid_text(grid)}; use a new --out"
+            )
         return
-    others = {k.scenario for k in Journal(out_dir).load()} - {scenario_hash}
+    others = {k.scenario for k in Journal(out_dir).load()} - {scenario_hash, *run_hashes}
     if others:
         raise SweepConflict(
             f"{out_dir}/{JOURNAL} holds runs of another scenario (hash {sorted(others)[0]}); "
@@ -126,7 +143,15 @@ def check_manifest(
         "scenario_name": scenario.get("name"),
         "scenario": scenario,
     }
+    if grid is not None:
+        manifest["grid"] = grid
     write_atomic(path, json.dumps(manifest, indent=2) + "\n")
+
+
+def _grid_text(grid: Any) -> str:
+    if not grid:
+        return "no grid"
+    return "the grid " + " × ".join(str(p) for p in grid)
 
 
 @contextmanager

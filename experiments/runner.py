@@ -121,10 +121,19 @@ def run_sweep(
     shash = spec.scenario_hash
     with exclusive(out_dir):
         engine = engine_fingerprint()
-        check_manifest(out_dir, shash, scenario_dict(spec.scenario), engine)
+        grid = spec.grid
+        hashes = [shash] if grid is None else [pt.hash for pt in grid.points]
+        check_manifest(
+            out_dir,
+            shash,
+            scenario_dict(spec.scenario),
+            engine,
+            grid=None if grid is None else grid.paths,
+            run_hashes=hashes,
+        )
         journal = Journal(out_dir)
         done = journal.load()
-        wanted = [RunKey(p.name, s, shash) for p in spec.policies for s in spec.seeds]
+        wanted = [RunKey(p.name, s, h) for h in hashes for p in spec.policies for s in spec.seeds]
         pending = [k for k in wanted if k not in done]
         resumed = len(wanted) - len(pending)
         if progress:
@@ -158,7 +167,14 @@ def run_sweep(
         records = [done[k] for k in wanted]
         if bound_fn is None and run_fn is None:
             bound_fn = engine_bound
-        files = write_outputs(spec, records, out_dir, bound_fn) if outputs else []
+        if not outputs:
+            files = []
+        elif grid is None:
+            files = write_outputs(spec, records, out_dir, bound_fn)
+        else:
+            from experiments.grid_outputs import write_grid_outputs
+
+            files = write_grid_outputs(spec, records, out_dir, bound_fn)
     return SweepResult(out_dir, ran, resumed, time.perf_counter() - t0, records, files)
 
 
@@ -183,12 +199,16 @@ def _drive(
     failures: list[tuple[RunKey, BaseException]] = []
     ran = 0
 
+    points = {} if spec.grid is None else {pt.hash: pt for pt in spec.grid.points}
+
     def fill() -> None:
         while len(inflight) < limit:
             key = next(queue, None)
             if key is None:
                 return
-            fut = ex.submit(execute_run, run_fn, spec.scenario, key.seed, key.policy)
+            pt = points.get(key.scenario)
+            scenario = spec.scenario if pt is None else pt.scenario
+            fut = ex.submit(execute_run, run_fn, scenario, key.seed, key.policy)
             inflight[fut] = key
 
     with journal.writer() as writer:
@@ -207,6 +227,8 @@ def _drive(
                         failures.append((key, EngineMismatch(out.get("engine"), engine)))
                         continue
                     record = {"policy": key.policy, "seed": key.seed, "scenario": key.scenario}
+                    if key.scenario in points:  # a grid run says where it ran
+                        record["point"] = _jsonable(points[key.scenario].as_dict())
                     record.update(_jsonable(out))
                     writer.append(record)
                     done[key] = record

@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from engine import Scenario
+    from experiments.grid import Grid, GridParam
 
 MAX_RUNS = 1_000_000
 """A sweep larger than this is almost certainly a typo in --seeds."""
@@ -41,16 +42,19 @@ class PolicyRef:
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """Every policy × every seed on one (already scaled) scenario."""
+    """Every policy × every seed on one (already scaled) scenario, or at every point of a grid
+    of overrides to it (`experiments.grid`)."""
 
     policies: tuple[PolicyRef, ...]
     seeds: tuple[int, ...]
     scenario: Scenario
     scale: int = 1
+    grid: Grid | None = None
 
     @property
     def total(self) -> int:
-        return len(self.policies) * len(self.seeds)
+        points = len(self.grid.points) if self.grid is not None else 1
+        return points * len(self.policies) * len(self.seeds)
 
     @property
     def scenario_hash(self) -> str:
@@ -133,13 +137,26 @@ def parse_policies(
 
 
 def make_spec(
-    policies: tuple[PolicyRef, ...], seeds: tuple[int, ...], scenario: Scenario, scale: int = 1
+    policies: tuple[PolicyRef, ...],
+    seeds: tuple[int, ...],
+    scenario: Scenario,
+    scale: int = 1,
+    grid: Sequence[GridParam] | None = None,
 ) -> SweepSpec:
-    """Check the whole spec: a sweep of zero runs or of an absurd size is an argument error."""
+    """Check the whole spec: a sweep of zero runs or of an absurd size is an argument error.
+
+    `grid` (parsed `--grid` parameters) overrides fields of the scaled scenario at every
+    point of their product; every point is validated here.
+    """
     if scale < 1:
         raise SpecError(f"--scale {scale}: must be a whole number >= 1")
     if not policies or not seeds:
         raise SpecError("a sweep needs at least one policy and one seed")
     if len(policies) * len(seeds) > MAX_RUNS:
         raise SpecError(f"{len(policies)} policies × {len(seeds)} seeds: more than {MAX_RUNS} runs")
-    return SweepSpec(policies=policies, seeds=seeds, scenario=scenario, scale=scale)
+    built = None
+    if grid:
+        from experiments.grid import make_grid
+
+        built = make_grid(grid, scenario, MAX_RUNS // (len(policies) * len(seeds)))
+    return SweepSpec(policies=policies, seeds=seeds, scenario=scenario, scale=scale, grid=built)

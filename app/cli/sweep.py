@@ -39,12 +39,27 @@ def sweep(
         str | None,
         typer.Option("--scheduler", help="Run on a Dask cluster, e.g. tcp://host:8786."),
     ] = None,
+    grid: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--grid",
+            metavar="<path=v1,v2>",
+            help="Scenario override to sweep, PATH=V1,V2,… e.g. speeds.excavator=0.3,0.5; "
+            "repeat for a cartesian product.",
+        ),
+    ] = None,
+    grid_file: Annotated[
+        Path | None,
+        typer.Option("--grid-file", help="Grid parameters from a .toml/.json: PATH = [values]."),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:
     """Compare policies over many seeds: runs.csv, summary.json, figures and report.md.
 
     Re-running with the same --out continues an interrupted sweep and never repeats a run.
+    With --grid, every policy × seed runs at every point of the grid.
     """
+    from experiments.grid import parse_grid
     from experiments.journal import SweepConflict
     from experiments.runner import SweepError, run_sweep
     from experiments.spec import SpecError, make_spec, parse_policies, parse_seeds
@@ -69,8 +84,9 @@ def sweep(
         seed_list = parse_seeds(seeds)
         if scale < 1:
             raise SpecError(f"--scale {scale}: must be a whole number >= 1")
+        params = parse_grid(grid or [], grid_file)
         scen = load_scenario(scenario) if scenario else reference_scenario()
-        spec = make_spec(pols, seed_list, scen.scaled(scale), scale)
+        spec = make_spec(pols, seed_list, scen.scaled(scale), scale, params)
     except (SpecError, ScenarioError) as exc:
         _fail(str(exc))
 
@@ -89,8 +105,9 @@ def sweep(
             if bar is not None:
                 bar.stop()
             _fail(f"interrupted; finished runs are saved in {out}, re-run to continue", 130)
+    where = f" at {len(spec.grid.points)} grid points" if spec.grid is not None else ""
     typer.echo(
-        f"{spec.total} runs ({result.ran} new, {result.resumed} resumed) in "
+        f"{spec.total} runs{where} ({result.ran} new, {result.resumed} resumed) in "
         f"{result.elapsed_s:.1f} s → {out}/report.md"
     )
 
