@@ -24,8 +24,8 @@ VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
     "no-lead": ("lookahead", {"lead": False}),
     "no-time-bids-no-queue": ("lookahead", {"time_bids": False, "queue": {}}),
     "first-auction-only": ("lookahead", {"bid_all": False}),
-    "central": ("", {}),
-    "central-no-lead": ("central", {"lead": False}),
+    "central-greedy": ("", {}),
+    "central-greedy-no-lead": ("central-greedy", {"lead": False}),
 }
 
 

@@ -1,17 +1,19 @@
-"""The centralized baseline: an oracle allocator with global knowledge.
+"""The centralized baseline: a greedy central allocator with global state.
 
 Every auction still runs on the bus (announce, bids, award, acknowledgement, close), with the
 same robots and the same physics, so its figures compare with the decentralized policies'.
-Only the award differs: instead of ranking the bids it received, the auctioneer asks the
-oracle, which reads the true state of the whole mission — every robot's true position and
-whether it is free, every open auction of every auctioneer — and solves the assignment of
-open tasks to free capable robots that minimises the summed travel time along true planned
-paths (the Hungarian method, `scipy.optimize.linear_sum_assignment`). The auction is awarded
-to the robot the optimal assignment gives it, or waits if it gives it none.
+Only the award differs: instead of ranking the bids it received, the auctioneer asks a central
+unit that reads the true state of the whole mission — every robot's true position and whether
+it is free, every open auction of every auctioneer — and assigns the open tasks to the robots
+free right now so as to minimise their summed travel time along true planned paths (the
+Hungarian method, `scipy.optimize.linear_sum_assignment`). The auction goes to the robot that
+assignment gives it, or waits if it gives it none.
 
-Decision points are the moments an auction asks for its winner: the end of its bid window,
-a late finite bid (a robot became free), and each re-announcement. No robot could know what
-the oracle reads; it is a yardstick for what decentralization costs, not a design to deploy.
+The assignment is optimal only for that instant: it is myopic (it never waits for a robot
+about to be free, never plans a sequence of tasks), so it is a greedy heuristic with global
+knowledge, not an optimal allocation. Decision points are the moments an auction asks for its
+winner: the end of its bid window, a late finite bid (a robot became free), and each
+re-announcement. No robot could know what it reads; it is a yardstick, not a design.
 """
 
 from __future__ import annotations

@@ -154,7 +154,7 @@ def policy_table() -> list[PolicyMeta]:
 
 
 def policy_help() -> str:
-    """The registered policies as one line of CLI help: `1|fcfs (FCFS), …, 0|central (Central)`."""
+    """The registered policies as one line of CLI help: `1|fcfs (FCFS), …`."""
     return ", ".join(f"{p['number']}|{p['name']} ({p['label']})" for p in policy_table())
 
 
@@ -279,14 +279,16 @@ class Lookahead(EarlyTransports):
 
 
 @register_policy
-class Central(EarlyTransports):
-    """The centralized baseline (number 0): an oracle with global knowledge picks every
-    auction's winner by an optimal assignment (engine/central.py). Robots bid in every open
-    auction, so the records look like the others'; the bids do not decide anything."""
+class CentralGreedy(EarlyTransports):
+    """The centralized baseline (number 0): a central unit with global state awards each
+    auction by a greedy, myopic assignment — the robots free right now to the tasks open right
+    now, minimizing their summed travel time (engine/central.py). It is not an optimum: it
+    neither waits for a robot about to be free nor plans ahead. Robots bid in every open auction
+    so the records look like the others'; the bids do not decide anything."""
 
-    number, name = 0, "central"
-    label, colour = "Central", "#bbbbbb"
-    description = "centralized oracle baseline: optimal assignment from global knowledge"
+    number, name = 0, "central-greedy"
+    label, colour = "Central greedy", "#bbbbbb"
+    description = "baseline, not decentralized: greedy assignment of free robots to open tasks"
     decentralized = False  # Policy 4's early transport auctions: only the allocation differs
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
@@ -314,11 +316,16 @@ class RelaxedCoalitions(AnticipatoryCoalitions):
         return earliest(auctions)
 
 
+ALIASES = {"central": "central-greedy"}
+"""Former names, still accepted (scripts, stored missions and sweeps that used them)."""
+
+
 def resolve_policy(value: str | int) -> str:
     """'2', 2 or 'coalition' → 'coalition'; raises ValueError naming the choices."""
     text = str(value).strip().lower()
     if text.isdigit() and int(text) in POLICY_NAMES:
         return POLICY_NAMES[int(text)]
+    text = ALIASES.get(text, text)
     if text in POLICIES:
         return text
     choices = ", ".join(f"{n}|{name}" for n, name in sorted(POLICY_NAMES.items()))

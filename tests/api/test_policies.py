@@ -15,8 +15,8 @@ def test_viewers_read_every_registered_policy_in_registration_order(server: Live
     assert res.status_code == 200, res.text
     assert res.json() == policy_table()
     names = [p["name"] for p in res.json()]
-    assert names[:3] == ["fcfs", "coalition", "nearest"] and "central" in names
-    assert [p["decentralized"] for p in res.json() if p["name"] == "central"] == [False]
+    assert names[:3] == ["fcfs", "coalition", "nearest"] and "central-greedy" in names
+    assert [p["decentralized"] for p in res.json() if p["name"] == "central-greedy"] == [False]
     # the request enum accepts exactly the policies the list offers
     accepted = spec["components"]["schemas"]["PolicyUpdate"]["properties"]["policy"]["anyOf"]
     assert set(names) == set(accepted[0]["enum"])

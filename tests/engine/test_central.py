@@ -4,13 +4,14 @@ import numpy as np
 
 from engine import Mission, run_mission
 from engine.central import FORBIDDEN, optimal_assignment
-from engine.policies import Central, resolve_policy
+from engine.policies import CentralGreedy, resolve_policy
 from tests.engine.factories import quiet_scenario, run_with_failures, small_scenario
 
 
 def test_central_is_policy_0_and_has_an_oracle():
-    assert resolve_policy("0") == "central"
-    assert Central().allocator() is not None
+    assert resolve_policy("0") == "central-greedy"
+    assert resolve_policy("central") == "central-greedy"  # its former name still works
+    assert CentralGreedy().allocator() is not None
 
 
 def test_optimal_assignment_beats_greedy_and_skips_forbidden_pairs():
@@ -38,7 +39,7 @@ def near_and_far(policy: str) -> tuple[Mission, str, str]:
 
 
 def test_the_oracle_awards_by_the_optimal_assignment_not_the_best_bid():
-    m, near, far = near_and_far("central")
+    m, near, far = near_and_far("central-greedy")
     first, second = (m.ctx.observer.auctions_by_id[a] for a in (near, far))
     best_bid = max(first.bids, key=lambda b: b.utility)
     assert best_bid.bidder == "excavator-1"  # the nearer robot bid highest ...
@@ -54,7 +55,7 @@ def test_with_policy_3_the_same_situation_goes_greedily():
 
 
 def test_a_task_waits_while_the_optimum_gives_it_no_robot():
-    m = Mission(quiet_scenario(), seed=1, policy="central")  # one excavator, two tasks
+    m = Mission(quiet_scenario(), seed=1, policy="central-greedy")  # one excavator, two tasks
     ax, ay = m.ctx.robots["excavator-1"].pos
     first = m.inject_task("excavate", (ax - 20.0, ay))
     second = m.inject_task("excavate", (ax + 3.0, ay))
@@ -68,10 +69,10 @@ def test_a_task_waits_while_the_optimum_gives_it_no_robot():
 
 def test_invariants_hold_under_the_oracle_with_failures():
     for seed in (3, 1543):
-        m = run_with_failures("central", seed)
+        m = run_with_failures("central-greedy", seed)
         assert m.status == "completed" and m.ctx.field.delivered == m.ctx.field.minerals_total
 
 
 def test_the_oracle_run_is_deterministic():
-    a, b = (run_mission(small_scenario(), 5, "central") for _ in range(2))
+    a, b = (run_mission(small_scenario(), 5, "central-greedy") for _ in range(2))
     assert a == b

@@ -75,7 +75,7 @@ GOLDEN = {
     "coalition-relaxed": (3810, "cf998c49aeb9dca74bbed4d8bae8b0277f4255daec3b16b993ddf2a7fca7e85d"),
     "nearest": (4778, "224d4b940af14819c252cbf83cae4e710931253cd32c3735dac108f54ad30d54"),
     "lookahead": (4063, "89b6b953f1a379f7b9f0f47aa403cfe4d898c2f2fb5b9d02dd1c26e8de98a8ce"),
-    "central": (4231, "abfab458bb3af929ace82575e8aefc566b8b913c2e2b7697bb1ee906802b4b73"),
+    "central-greedy": (4231, "abfab458bb3af929ace82575e8aefc566b8b913c2e2b7697bb1ee906802b4b73"),
 }
 
 

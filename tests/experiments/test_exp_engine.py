@@ -81,7 +81,7 @@ def test_lower_bound_never_exceeds_a_makespan(
     )
     bound = engine_bound(scenario, seed)
     assert bound.value > 0
-    for policy in ("fcfs", "coalition", "nearest", "lookahead", "central"):
+    for policy in ("fcfs", "coalition", "nearest", "lookahead", "central-greedy"):
         m = run_mission(scenario, seed, policy)
         assert m["status"] == "completed"
         assert bound.value <= m["makespan_s"], (policy, bound.terms, m["makespan_s"])
