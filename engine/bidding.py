@@ -35,8 +35,8 @@ class RobotView(Protocol):
         ...
 
     def stranded(self, a: OpenAuction) -> bool:
-        """Nobody but a paired hauler could take this transport: its excavator has no live
-        partner and no unpaired hauler is alive, as far as this robot knows."""
+        """Nobody but a paired hauler could take this transport: no unpaired hauler is alive,
+        as far as this robot knows."""
         ...
 
     def cost_to(self, a: OpenAuction) -> float: ...

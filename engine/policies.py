@@ -195,10 +195,10 @@ class AnticipatoryCoalitions(FirstComeFirstServed):
     """Policy 2, as specified: a paired hauler follows its excavator and carries only its
     minerals, with no auction; everyone else bids as Policy 1.
 
-    One narrow exception keeps a mission from deadlocking: an excavator with no live partner
-    when no unpaired hauler is alive (more excavators than haulers, or haulers lost) would
-    never get a transport, so a paired hauler whose own partner has no site bids, as Policy 1,
-    in that excavator's transports and in no other auction.
+    One narrow exception keeps a mission from deadlocking: with no unpaired hauler alive (more
+    excavators than haulers, or haulers lost), an auctioned transport — an excavator without a
+    partner, or a fallen mineral — would never be carried, so a paired hauler whose own
+    partner has no site then bids in transport auctions as Policy 1.
     """
 
     number, name = 2, "coalition"

@@ -203,9 +203,16 @@ class Robot(Bidder, Recovery):
         """Hook: subclasses track what others were allocated (coalition partners)."""
 
     def _on_task_done(self, msg: TaskDone) -> None:
+        # only the robot a task was allocated to ends that allocation (a duplicate holder's
+        # "void" must not end the real holder's watch)
         for allocs in self.peer_alloc.values():
-            allocs.pop(msg.task_id, None)
-        alloc = self.house.allocations.pop(msg.task_id, None)
+            if msg.task_id in allocs and allocs[msg.task_id].winner == msg.sender:
+                del allocs[msg.task_id]
+        alloc = self.house.allocations.get(msg.task_id)
+        if alloc is not None and alloc.winner == msg.sender:
+            del self.house.allocations[msg.task_id]
+        else:
+            alloc = None
         if alloc is not None and msg.outcome == "released":
             self.reauction(alloc, None)
         elif msg.outcome == "done":

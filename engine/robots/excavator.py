@@ -85,6 +85,8 @@ class Excavator(Robot):
                 self.ctx.observer.emit(
                     "dug", robot=self.name, site=site.id, remaining=site.remaining
                 )
+                if self.ahead and not self.ctx.policy.early_transports():
+                    self._drop_ahead()  # the policy changed: no more transports ahead
                 if self.ahead:
                     yield from self.hand_over_ahead(site)
                 else:

@@ -189,6 +189,10 @@ class Hauler(Robot):
             return  # won a task or was released while driving: back to the main loop
         exc = self._excavator_here(lambda e: e.name == partner)
         if exc is None:
+            working = self._partner_works_at()
+            if working is not None and dist(working, site) > NEAR:
+                self.partner_site = working  # its heartbeat says it digs elsewhere: go there
+                return
             # not there (yet, or any more): wait for news rather than spin
             self.state = "idle"
             yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
@@ -216,9 +220,8 @@ class Hauler(Robot):
         return self.partner_site is not None and self.paired()
 
     def stranded(self, a: OpenAuction) -> bool:
-        excavator_partner = coalition_partner(a.auctioneer)
-        if excavator_partner is not None and self.peer_alive(excavator_partner):
-            return False
+        """No unpaired hauler is alive to take this transport (paired haulers take only their
+        partner's minerals, and a partner never bids), as far as I know."""
         for h in self.peers_of_type("hauler"):
             mate = coalition_partner(h)
             if h != self.name and self.peer_alive(h) and not (mate and self.peer_alive(mate)):
@@ -256,15 +259,25 @@ class Hauler(Robot):
         super().check_peers()
         if self.partner is None or self.partner_site is not None or not self.paired():
             return
+        working = self._partner_works_at()
+        if working is not None:
+            self.partner_site = working
+            self.wake()
+
+    def _partner_works_at(self) -> Point | None:
+        """Where my partner stands digging, by its last heartbeat (None: it does not, or it is
+        the site it has just left)."""
+        if self.partner is None:
+            return None
         hb = self.ctx.liveness.last_heartbeat(self.name, self.partner)
         if (
             hb is not None
             and hb.state in ("digging", "waiting", "loading")
             and hb.tasks
-            and hb.tasks[0] not in self._partner_done  # not the site it has just left
+            and hb.tasks[0] not in self._partner_done
         ):
-            self.partner_site = (hb.x, hb.y)
-            self.wake()
+            return (hb.x, hb.y)
+        return None
 
     def on_task_done_heard(self, msg: TaskDone) -> None:
         if msg.sender == self.partner and msg.task_id.startswith("excavate@"):

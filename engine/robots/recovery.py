@@ -50,9 +50,13 @@ class Recovery(RobotCore):
         proto = self.ctx.scenario.protocol
         now = float(self.env.now)
         board = self.ctx.liveness
-        for peer in [p for p in self.down if board.last_heard(self.name, p) > self.down_at[p]]:
+        back = [p for p in self.down if board.last_heard(self.name, p) > self.down_at[p]]
+        for peer in back:
             self.down.discard(peer)  # heard again since: it is back
             self._in_order = None
+        if back:  # its auctions count again, and a partner may be back: look again
+            self.wake()
+            self.consider_bids()
         for peer in board.silent(self.name, now, proto.failure_timeout_s):
             if peer not in self.down and peer not in self._probing:
                 self._probing.add(peer)
