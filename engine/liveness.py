@@ -101,6 +101,18 @@ class Liveness:
                 break
         return None
 
+    def last_heartbeat_about(self, receiver: str, sender: str, task_id: str) -> Heartbeat | None:
+        """The latest heartbeat of `sender` up to the last one `receiver` heard that listed
+        `task_id` (the holder's last word on a task, even if it has since come back without it)."""
+        r, s = self.index.get(receiver), self.index.get(sender)
+        if r is None or s is None:
+            return None
+        want = int(self.hb_seen[r, s])
+        for serial, hb in reversed(self._history[sender]):
+            if serial <= want and task_id in hb.tasks:
+                return hb
+        return None
+
     def silent(self, receiver: str, now: float, timeout: float) -> list[str]:
         """Peers this receiver has heard at least once but not within `timeout`."""
         r = self.index[receiver]

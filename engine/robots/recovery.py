@@ -178,6 +178,9 @@ class Recovery(RobotCore):
             return
         kind = AUCTION_KINDS.get(self.rtype, "operator")
         location, search = alloc.location, alloc.search_path
+        if hb is not None and alloc.task_id not in hb.tasks:
+            # back from a failure without it, say: what it last said while it held the task
+            hb = self.ctx.liveness.last_heartbeat_about(self.name, alloc.winner, alloc.task_id)
         if hb is not None and hb.load > 0 and hb.tasks[:1] == (alloc.task_id,):
             # it was carrying the mineral: search along its route from where it was last heard
             location, search = (hb.x, hb.y), hb.path

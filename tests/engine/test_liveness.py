@@ -3,11 +3,13 @@ mission that cannot finish says so instead of running to max_time_s."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 import pytest
 
-from engine import Mission, reference_scenario, run_mission
+from engine import Mission, parse_scenario, reference_scenario, run_mission
 from engine.policies import POLICIES
 from experiments.chaos import chaos_mission
 from tests.engine.factories import events_of, small_scenario
@@ -52,6 +54,21 @@ def test_a_scout_back_before_anyone_noticed_resumes_its_auctions() -> None:
     assert settled[-1]["resumed"] >= 1 and settled[-1]["handed_over"] == 0
     stranded = [a for a in m.auctions if a.status == "open" and a.auctioneer == "scout-2"]
     assert all(a.id in m.ctx.robots["scout-2"].house.open_auctions for a in stranded)
+
+
+def test_a_recorded_live_chaos_session_completes() -> None:
+    """A live session that stalled in CI, replayed on the engine (its recorded actions are
+    its whole input): a hauler failed with a mineral and came back before its watcher noticed;
+    the re-auction must search along the route it last reported while carrying it."""
+    case = json.loads((Path(__file__).parent / "cases" / "live_chaos_stall.json").read_text())
+    scenario = parse_scenario({**reference_scenario().model_dump(), **case["scenario"]})
+    m = Mission(scenario, case["seed"], case["policy"])
+    watch = InvariantWatch(m)
+    for action in case["actions"]:
+        m.apply(action)
+    m.run()
+    watch.final()
+    assert (m.status, m.ctx.field.delivered) == ("completed", 64)
 
 
 # --- randomized operator actions over every policy -------------------------------------------
