@@ -119,9 +119,6 @@ class Duties:
     auctions: list[AuctionRecord] = field(default_factory=list)
     watches: dict[str, Allocation] = field(default_factory=dict)
 
-    def __bool__(self) -> bool:
-        return bool(self.auctions or self.watches)
-
     def task_ids(self) -> set[str]:
         return {r.task_id for r in self.auctions} | set(self.watches)
 

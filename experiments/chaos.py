@@ -11,8 +11,7 @@ as the mission's own action list, which replays to the same run.
 from __future__ import annotations
 
 import contextlib
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -129,20 +128,3 @@ def chaos_mission(
 def _try(m: Mission, action: dict[str, Any]) -> None:
     with contextlib.suppress(CommandRejected):  # e.g. the robot had finished leaving
         m.apply(action)
-
-
-def summarize(runs: Sequence[ChaosRun], baseline: dict[tuple[int, str], float]) -> dict[str, Any]:
-    """Stuck count and the makespan after restoration relative to the fault-free run."""
-    stuck = [r for r in runs if not r.finished]
-    ratios = [
-        (r.makespan_s - r.restored_at) / baseline[(r.seed, r.policy)]
-        for r in runs
-        if r.finished and r.makespan_s is not None and (r.seed, r.policy) in baseline
-    ]
-    return {
-        "runs": len(runs),
-        "stuck": len(stuck),
-        "stuck_cases": [(r.seed, r.policy, r.status, r.delivered) for r in stuck],
-        "after_restore_ratio_max": max(ratios) if ratios else math.nan,
-        "after_restore_ratio_p50": float(np.median(ratios)) if ratios else math.nan,
-    }

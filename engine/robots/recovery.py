@@ -22,9 +22,7 @@ class Recovery(RobotCore):
     # --- liveness, monitoring, adoption ---------------------------------------------------
     def heartbeat(self) -> None:
         pos, _ = self.position()
-        tasks = tuple(a.task_id for a in self.queue)
-        if self.current is not None:
-            tasks = (self.current.task_id, *tasks)
+        tasks = tuple(a.task_id for a in self.tasks_held())
         load = self.load()
         self.ctx.bus.publish(
             Heartbeat(
