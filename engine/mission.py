@@ -28,10 +28,14 @@ from engine.robots import OPERATOR, Excavator, Hauler, Operator, Robot, Scout
 from engine.robots.scout import site_task_id
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.spiral import spiral_routes
+from engine.tangent_planner import TangentPlanner
 from engine.views import MissionViews
-from engine.world import generate_world
+from engine.world import World, generate_world
 
-PlannerKind = Literal["ompl", "straight"]
+PlannerKind = Literal["ompl", "exact", "straight"]
+PLANNERS: tuple[PlannerKind, ...] = ("ompl", "exact", "straight")
+"""RRT-Connect (the study's planner, the default), exact shortest paths over the tangent
+graph, straight lines (obstacle-free tests only). docs/benchmarks.md compares the first two."""
 _CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hauler": Hauler}
 
 
@@ -52,9 +56,7 @@ class Mission(MissionViews):
             np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3)
         )
         self.world = generate_world(scenario, world_rng)
-        chosen: PathPlanner = (
-            OmplPlanner(self.world, plan_rng) if planner == "ompl" else StraightLinePlanner()
-        )
+        chosen = make_planner(planner, self.world, plan_rng)
         self.env = simpy.Environment()
         self.ctx = ctx = MissionContext(
             scenario, self.world, chosen, self.env, make_policy(self.initial_policy)
@@ -339,6 +341,16 @@ class Mission(MissionViews):
         if kind == "inject_task":
             return self.inject_task(args["type"], args["location"])
         raise CommandRejected(f"kind: unknown action {kind!r}")
+
+
+def make_planner(kind: str, world: World, rng: np.random.Generator) -> PathPlanner:
+    if kind == "ompl":
+        return OmplPlanner(world, rng)
+    if kind == "exact":
+        return TangentPlanner(world)
+    if kind == "straight":
+        return StraightLinePlanner()
+    raise ValueError(f"planner: must be one of {', '.join(PLANNERS)}, not {kind!r}")
 
 
 def run_mission(

@@ -50,14 +50,15 @@ class _In(BaseModel):
 
 
 class MissionCreate(_In):
-    """A new live mission. `planner="straight"` trades path realism for speed (tests)."""
+    """A new live mission. `planner`: "ompl" (RRT-Connect, the study's), "exact" (shortest
+    paths over the craters' tangent graph) or "straight" (obstacle-free tests only)."""
 
     policy: PolicyName = "fcfs"
     seed: Seed = 0
     speed: Speed = 1.0
     paused: Annotated[bool, Field(strict=True)] = False
     scenario: Scenario | None = None
-    planner: Literal["ompl", "straight"] = "ompl"
+    planner: Literal["ompl", "exact", "straight"] = "ompl"
 
 
 class SpeedUpdate(_In):

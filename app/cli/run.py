@@ -164,6 +164,9 @@ def run(
     fail: Annotated[list[str], typer.Option(help="NAME@T[:graceful|abrupt], repeatable")] = [],  # noqa: B006 - typer needs a literal default
     enable: Annotated[list[str], typer.Option(help="NAME@T, repeatable")] = [],  # noqa: B006
     add: Annotated[list[str], typer.Option(help="TYPE@T, repeatable")] = [],  # noqa: B006
+    planner: Annotated[
+        str, typer.Option(help="ompl (RRT-Connect, the study's) | exact (shortest paths)")
+    ] = "ompl",
 ) -> None:
     """Run one mission headless and print its figures."""
     try:
@@ -186,15 +189,18 @@ def run(
         except ScenarioError as exc:
             raise fail_usage(str(exc).replace("bus.", "--").replace("_s:", ":")) from None
     actions = parse_actions(fail, enable, add)
+    if planner not in ("ompl", "exact"):
+        raise fail_usage(f"--planner: must be ompl or exact, not {planner!r}")
     t0 = time.perf_counter()
     try:
-        metrics = run_mission(scen, seed, policy_name, actions)
+        metrics = run_mission(scen, seed, policy_name, actions, planner=planner)  # type: ignore[arg-type]
     except (EngineError, ScenarioError) as exc:
         # an action the mission refuses (unknown robot, bad time …), or a world the scenario
         # cannot make for this seed (sites that do not fit): the user's input, not a bug
         raise fail_usage(str(exc)) from None
     # the machine's time, reported beside the mission's figures (never part of them)
     metrics["wall_s"] = time.perf_counter() - t0
+    metrics["planner"] = planner
     add_bounds(metrics, scen, seed, faults=bool(actions))
     if json_out:
         typer.echo(json.dumps(_finite(metrics), sort_keys=True))

@@ -10,7 +10,7 @@ from __future__ import annotations
 import asyncio
 import json
 from time import perf_counter
-from typing import Any, Literal
+from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -23,6 +23,7 @@ from app.services.errors import Conflict
 from app.services.recorder import Recorder
 from app.services.store import Store, stored_counts
 from engine import Mission, parse_scenario
+from engine.mission import PLANNERS
 
 _PAGE = 5000
 _SLICE_S = 0.005
@@ -77,8 +78,8 @@ async def revive(runner: MissionRunner, store: Store, row: MissionRow) -> LiveMi
     """Replay `row` to its last stored simulation time and hand it to the runner (paused)."""
     gate = runner.gate
     with gate:
-        planner: Literal["ompl", "straight"] = "straight" if row.planner == "straight" else "ompl"
-        m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)
+        planner = row.planner if row.planner in PLANNERS else "ompl"
+        m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)  # type: ignore[arg-type]
     try:
         for action in sorted((a for a in row.actions if a.replay), key=lambda a: a.seq):
             await _advance_to(gate, m, action.t)

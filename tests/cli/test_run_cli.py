@@ -112,3 +112,16 @@ def test_a_scenario_that_cannot_run_is_one_line_and_exit_2(tmp_path: Path, text:
     assert out.exit_code == 2, out.output
     lines = [ln for ln in out.output.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: ") and says in lines[0], out.output
+
+
+def test_the_exact_planner_is_never_longer_and_a_bad_planner_is_one_line():
+    runs = {
+        p: regolith("run", "--policy", "4", "--seed", "0", "--planner", p, "--json")
+        for p in ("ompl", "exact")
+    }
+    figures = {p: json.loads(r.stdout) for p, r in runs.items()}
+    assert figures["exact"]["planner"] == "exact" and figures["exact"]["completed"] is True
+    # same world and spiral; shortest paths make the scouts' sweep no longer than RRT-Connect's
+    assert figures["exact"]["distance"]["scout"] <= figures["ompl"]["distance"]["scout"]
+    bad = regolith("run", "--policy", "4", "--seed", "0", "--planner", "astar")
+    assert bad.returncode == 2 and "--planner" in bad.stderr
