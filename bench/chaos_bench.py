@@ -7,7 +7,7 @@ Every registered policy runs every seed: a fault-free mission, then the same see
 `--actions` random operator actions (disable graceful/abrupt, enable, add, inject, switch
 policy; two at one instant now and then) over the first `--window` simulated seconds, then
 every robot enabled (experiments/chaos.py). Runs on all cores through a process pool, with
-the real OMPL planner unless `--planner straight`. docs/faults.md records the figures.
+the real OMPL planner unless `--planner exact` or `--planner straight`. docs/faults.md records the figures.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def main() -> int:
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--actions", type=int, default=14)
     ap.add_argument("--window", type=float, default=2500.0)
-    ap.add_argument("--planner", choices=["ompl", "straight"], default="ompl")
+    ap.add_argument("--planner", choices=["ompl", "exact", "straight"], default="ompl")
     ap.add_argument("--workers", type=int, default=None)
     o = ap.parse_args()
     jobs = [
