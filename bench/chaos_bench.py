@@ -7,7 +7,8 @@ Every registered policy runs every seed: a fault-free mission, then the same see
 `--actions` random operator actions (disable graceful/abrupt, enable, add, inject, switch
 policy; two at one instant now and then) over the first `--window` simulated seconds, then
 every robot enabled (experiments/chaos.py). Runs on all cores through a process pool, with
-the real OMPL planner unless `--planner exact` or `--planner straight`. docs/faults.md records the figures.
+the real OMPL planner unless `--planner exact` or `--planner straight`. docs/faults.md
+records the figures.
 """
 
 from __future__ import annotations
