@@ -15,7 +15,9 @@ def _all_events(api: Any, mission_id: int, kind: str) -> list[dict[str, Any]]:
     items: list[dict[str, Any]] = []
     after = -1
     while True:
-        page = api.get(f"/missions/{mission_id}/events", params={"kind": kind, "after": after, "limit": 1000}).json()
+        page = api.get(
+            f"/missions/{mission_id}/events", params={"kind": kind, "after": after, "limit": 1000}
+        ).json()
         items += page["items"]
         if page["next_after"] is None:
             return items
@@ -36,7 +38,9 @@ def _expect_stored_ending(page: Page, api: Any, mission_id: int) -> None:
     assert shown["delivered"][-1][1] == metrics["minerals_delivered"]
     assert shown["total"] == metrics["minerals_total"]
     assert shown["t"] == record["sim_time"] == page.evaluate("window.__regolith.t")
-    auctions = api.get(f"/missions/{mission_id}/auctions", params={"status": "closed", "limit": 500}).json()
+    auctions = api.get(
+        f"/missions/{mission_id}/auctions", params={"status": "closed", "limit": 500}
+    ).json()
     assert auctions["total"] == len(auctions["items"]) > 0
     times: dict[str, list[float]] = {}
     for a in auctions["items"]:
