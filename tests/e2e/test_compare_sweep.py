@@ -69,7 +69,7 @@ def test_start_a_sweep_and_compare_its_results(
         assert download.suggested_filename == f"sweep-{sid}-{name}"
         folder = "figures" if name.startswith("makespan") else "files"
         served = api.get(f"/sweeps/{sid}/{folder}/{name}").content
-        assert open(download.path(), "rb").read() == served, name
+        assert download.path().read_bytes() == served, name
 
     page.locator("#compare-none").click()  # back to missions: the sweep's figures go away
     expect(page.locator("#sweep-figures")).to_be_hidden()
