@@ -5,7 +5,7 @@
 import { $, h, fmt } from "./dom.js";
 import { get, qs } from "./api.js";
 import { barChart, stripChart } from "./charts.js";
-import { KIND_LABEL } from "./palette.js";
+import { KIND_ABBR, KIND_LABEL, TYPE_ABBR } from "./palette.js";
 import { missionMetrics, shortId } from "./missions.js";
 import { SweepPanel } from "./sweeps.js";
 import { groupColour as colour, groupLabel, groupOf, groupOrder, groupShort, meanCi, policyText, scenarioKey, scenarios } from "./comparegroups.js";
@@ -75,7 +75,8 @@ export class ComparePage {
     const list = scenarios(this.missions);
     if (!list.some((s) => s.key === this.scenario)) this.scenario = list[0]?.key ?? null;
     const sel = $("#compare-scenario");
-    sel.replaceChildren(...list.map((s) => h("option", { value: s.key, selected: s.key === this.scenario }, `${s.name} · ${s.hash.slice(0, 6)} (${s.count})`)));
+    const options = list.map((s) => h("option", { value: s.key, selected: s.key === this.scenario }, `${s.name} · ${s.hash.slice(0, 6)} (${s.count})`));
+    sel.replaceChildren(...(options.length ? options : [h("option", { value: "" }, "none yet")]));
     sel.disabled = list.length < 2;
     sel.title = list.length < 2 ? "Every finished mission has this scenario" : "Runs of different scenarios are never pooled: pick one";
   }
@@ -177,12 +178,12 @@ export class ComparePage {
       });
     barChart(
       $("#cmp-distance"),
-      TYPES.map((t) => ({ label: t, bars: bars((r) => r.distance?.[t]) })),
+      TYPES.map((t) => ({ label: t, abbr: TYPE_ABBR[t], bars: bars((r) => r.distance?.[t]) })),
       { emptyText: empty, unit: " m" },
     );
     barChart(
       $("#cmp-auction"),
-      KINDS.map((k) => ({ label: KIND_LABEL[k], bars: bars((r) => r.auction_open_s?.[k]?.mean) })),
+      KINDS.map((k) => ({ label: KIND_LABEL[k], abbr: KIND_ABBR[k], bars: bars((r) => r.auction_open_s?.[k]?.mean) })),
       { emptyText: empty, unit: " s" },
     );
     this.summary(present, by);

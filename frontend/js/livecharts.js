@@ -3,7 +3,7 @@
 
 import { $ } from "./dom.js";
 import { barChart, stepChart, stripChart, timeTicks } from "./charts.js";
-import { KIND_COLOUR, KIND_LABEL, TYPE_COLOUR, robotType } from "./palette.js";
+import { KIND_ABBR, KIND_COLOUR, KIND_LABEL, TYPE_ABBR, TYPE_COLOUR, robotType } from "./palette.js";
 import { distanceByType } from "./final.js";
 
 const REDRAW_MS = 1000;
@@ -99,14 +99,14 @@ export class LiveCharts {
     const types = ["scout", "excavator", "hauler"].filter((t) => t in this.distance);
     barChart(
       $("#chart-distance"),
-      types.map((t) => ({ label: t, bars: [{ name: t, value: this.distance[t], colour: TYPE_COLOUR[t] }] })),
+      types.map((t) => ({ label: t, abbr: TYPE_ABBR[t], bars: [{ name: t, value: this.distance[t], colour: TYPE_COLOUR[t] }] })),
       { unit: " m" },
     );
     const times = this.final && this.finalOpen ? this.finalOpen : this.openTimes();
     const kinds = ["scout_excavator", "excavator_hauler", "operator"].filter((k) => k in times || k !== "operator");
     stripChart(
       $("#chart-auctions"),
-      kinds.map((k) => ({ label: KIND_LABEL[k], colour: KIND_COLOUR[k], values: times[k] || [] })),
+      kinds.map((k) => ({ label: KIND_LABEL[k], abbr: KIND_ABBR[k], colour: KIND_COLOUR[k], values: times[k] || [] })),
       { emptyText: "no auction closed yet" },
     );
   }

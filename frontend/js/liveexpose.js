@@ -38,6 +38,10 @@ export function exposeLive(view) {
     get final() {
       return view.finalShown === view.id && view.id !== null;
     },
+    /** The map as last drawn: robots bottom to top, labels and glyph boxes (CSS pixels). */
+    get drawn() {
+      return view.map.drawn ?? null;
+    },
     pagePoint: (x, y) => view.map.pagePoint(x, y),
   };
 }
