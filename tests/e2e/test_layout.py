@@ -17,7 +17,10 @@ SIZES = {"wide": (1280, 800), "laptop": (1024, 768), "phone": (390, 844)}
 
 # every SVG text of a chart's x axis, and its bar values with their whiskers, as boxes
 CHART_BOXES = """sel => [...document.querySelectorAll(sel)].map(svg => {
-  const box = (e) => { const r = e.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; };
+  const box = (e) => {
+    const r = e.getBoundingClientRect();
+    return [r.left, r.top, r.right, r.bottom];
+  };
   return {
     xlabels: [...svg.querySelectorAll('text.xlabel')].map(box),
     values: [...svg.querySelectorAll('text.value')].map(box),
