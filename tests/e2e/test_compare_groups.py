@@ -10,6 +10,7 @@ from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog
 from tests.e2e.test_dashboard import wait_for
+from tests.e2e.test_layout import CHART_BOXES, check_charts
 
 FOUR = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
 THREE = {**FOUR, "sites": 3}  # same name, other content
@@ -70,6 +71,11 @@ def test_compare_keeps_scenarios_and_mixed_runs_apart(
     expect(page.locator("#compare-summary tbody tr").nth(1).locator("td").first).to_contain_text(
         f"{mean:.0f} ± "
     )
+
+    # the bar values stand clear of the CI whiskers (FCFS has two runs: a whisker)
+    charts = page.evaluate(CHART_BOXES, ".compare-figs svg")
+    assert any(c["values"] for c in charts) and any(c["whiskers"] for c in charts)
+    check_charts(page, ".compare-figs svg")
 
     page.get_by_label("Include mixed-policy runs").check()
     expect(row.locator("input[type=checkbox]")).to_be_enabled()
