@@ -6,7 +6,7 @@ from typing import Any
 
 from playwright.sync_api import Page, expect
 
-from tests.e2e.conftest import ConsoleLog
+from tests.e2e.conftest import ARTIFACTS, ConsoleLog
 from tests.e2e.test_compare_groups import FOUR, finish
 
 
@@ -71,6 +71,8 @@ def test_start_a_sweep_and_compare_its_results(
         served = api.get(f"/sweeps/{sid}/{folder}/{name}").content
         assert download.path().read_bytes() == served, name
 
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / "compare-sweep.png"), full_page=True)
     page.locator("#compare-none").click()  # back to missions: the sweep's figures go away
     expect(page.locator("#sweep-figures")).to_be_hidden()
     assert console.errors == []
