@@ -92,10 +92,10 @@ def _fits_the_screen(page: Page, width: int) -> None:
 
 def test_layout_at_three_sizes(operator: Page, start_mission: Start, api: Any) -> None:
     page = operator
-    mission = start_mission(policy="coalition", seed=7, speed=60)
+    mission = start_mission(policy="coalition", seed=7, speed=120)
     mid = mission["id"]
     open_live(page, mid)
-    wait_for(page, "(window.__regolith.lastCounters || {}).minerals_delivered >= 16", timeout=90)
+    wait_for(page, "(window.__regolith.lastCounters || {}).minerals_delivered >= 12", timeout=90)
     plant = page.evaluate("window.__regolith.map.plant")
     task = {"type": "excavate", "location": [plant["x"] + 12, plant["y"] + 10]}
     assert api.post(f"/missions/{mid}/tasks", json=task).status_code in (200, 201)
