@@ -49,7 +49,7 @@ export class LiveView {
       onControls: (operator, live) => {
         this.table.setControl(operator, !live);
         if (!live) this.controls.closePick();
-        if (live && this.finalShown !== null) this._unfinal(); // resumed
+        if (live && this.finalShown !== null) this._unfinal({ resumed: true });
       },
       onEnded: (simTime) => {
         this.state.t = simTime;
@@ -128,20 +128,22 @@ export class LiveView {
     this.table.reset();
     this.charts.reset();
     $("#live-mission-id").textContent = id;
-    this._start(id);
+    this.opened = (this.opened || 0) + 1;
+    this._start(id, this.opened);
     return undefined;
   }
 
   /** Ask for the record first: an unknown mission is said so, without a stream or polls. */
-  async _start(id) {
+  async _start(id, opened) {
+    const current = () => opened === this.opened && id === this.id; // not reopened meanwhile
     try {
       await get(`/missions/${encodeURIComponent(id)}`);
     } catch (err) {
-      if (id === this.id && err.status === 404) this._notFound(id);
-      else if (id === this.id) toast(`Mission ${id}: ${err.message}`, "error");
+      if (current() && err.status === 404) this._notFound(id);
+      else if (current()) toast(`Mission ${id}: ${err.message}`, "error");
       if (err.status === 404 || err.status === 422) return;
     }
-    if (id !== this.id) return;
+    if (!current()) return;
     this.stream.connect(id);
     this._loadHistory();
     this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
@@ -164,6 +166,7 @@ export class LiveView {
   }
 
   close() {
+    this.opened = (this.opened || 0) + 1; // a pending _start gives up
     this.stream.close();
     clearInterval(this.poll);
     this.poll = null;
@@ -352,12 +355,12 @@ export class LiveView {
     $("#live").dataset.final = "true";
   }
 
-  /** Back to the stream's word (another mission, or this one resumed). */
-  _unfinal() {
+  /** Back to the stream's word: another mission, or this one resumed (polls again). */
+  _unfinal({ resumed = false } = {}) {
     this.finalShown = null;
     this.charts.final = false;
     delete $("#live").dataset.final;
-    if (this.id && !this.poll && LIVE.has(this.status.status)) this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
+    if (resumed && this.id && !this.poll) this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
   }
 
   async _loadHistory() {
