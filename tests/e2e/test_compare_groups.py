@@ -8,7 +8,7 @@ from typing import Any
 
 from playwright.sync_api import Page, expect
 
-from tests.e2e.conftest import ConsoleLog
+from tests.e2e.conftest import ARTIFACTS, ConsoleLog
 from tests.e2e.test_dashboard import wait_for
 from tests.e2e.test_layout import CHART_BOXES, check_charts
 
@@ -84,6 +84,15 @@ def test_compare_keeps_scenarios_and_mixed_runs_apart(
         ["mean ± 95% CI", "1 · FCFS", "2 · Coalitions", "FCFS→Coalitions (mixed)"]
     )
     expect(runs).to_have_text(["2", "1", "1"])
+
+    # at a laptop's and a phone's width: labels still clear, the page within the screen
+    for w, h in ((1024, 768), (390, 844)):
+        page.set_viewport_size({"width": w, "height": h})
+        page.wait_for_timeout(300)  # the charts redraw on resize
+        check_charts(page, ".compare-figs svg")
+        assert page.evaluate("document.documentElement.scrollWidth") <= w
+        page.screenshot(path=str(ARTIFACTS / f"compare-{w}.png"), full_page=True)
+    page.set_viewport_size({"width": 1280, "height": 800})
 
     scenario.select_option(three)  # the 3-site runs alone
     expect(rows).to_have_count(1)
