@@ -75,7 +75,12 @@ def scenario_dict(scenario: Any) -> dict[str, Any]:
 
 def scenario_hash(scenario: Any) -> str:
     """A short content hash: two scenarios with equal parameters share it, whatever their source."""
-    text = json.dumps(scenario_dict(scenario), sort_keys=True, separators=(",", ":"))
+    return scenario_data_hash(scenario_dict(scenario))
+
+
+def scenario_data_hash(data: dict[str, Any]) -> str:
+    """`scenario_hash` of a scenario already as JSON data (a stored mission's scenario)."""
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 

@@ -114,10 +114,21 @@ class MissionRead(BaseModel):
     status: MissionStatus
     policy: str
     initial_policy: str
+    policies: list[str] = Field(
+        description="every policy in effect during the run, in order (initial first)"
+    )
+    mixed_policy: bool = Field(
+        description="the policy was switched live to another: its figures belong to no "
+        "single policy"
+    )
     seed: int
     speed: float | Literal["max"]
     planner: str
     scenario_name: str
+    scenario_hash: str = Field(
+        description="content hash of the scenario (16 hex digits; equal parameters, equal "
+        "hash, whatever the name); a sweep's runs.csv carries the same"
+    )
     sim_time: float
     created_at: datetime
     started_at: datetime | None
@@ -223,6 +234,12 @@ class EventPage(BaseModel):
     total: int
     limit: int
     next_after: int | None
+
+
+class AuthRead(BaseModel):
+    """What a valid token grants (`GET /api/auth/check`)."""
+
+    role: Literal["operator"]
 
 
 class ErrorRead(BaseModel):

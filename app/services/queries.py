@@ -33,7 +33,7 @@ def get_mission(session: Session, mission_id: int) -> Mission | None:
 def list_missions(
     session: Session, status: str | None, policy: str | None, limit: int, offset: int
 ) -> Page[Mission]:
-    stmt = select(Mission).order_by(Mission.id.desc())
+    stmt = select(Mission).options(selectinload(Mission.actions)).order_by(Mission.id.desc())
     if status is not None:
         stmt = stmt.where(Mission.status == status)
     if policy is not None:

@@ -93,6 +93,25 @@ def _number(text: str) -> float | str:
     return value if math.isfinite(value) else text
 
 
+SWEEP_FILES = {
+    "runs.csv": "text/csv",
+    "bounds.csv": "text/csv",
+    "summary.json": "application/json",
+    "report.md": "text/markdown",
+}
+"""The result files a sweep's folder may hold, each served by `GET /api/sweeps/{id}/files/{name}`
+(only these names: nothing else in the folder is reachable)."""
+
+
+def file_links(out_dir: Path, sweep_id: int) -> list[dict[str, str]]:
+    """The result files written so far, with the URLs that serve them."""
+    return [
+        {"name": name, "url": f"/api/sweeps/{sweep_id}/files/{name}", "media_type": media}
+        for name, media in SWEEP_FILES.items()
+        if (out_dir / name).is_file()
+    ]
+
+
 def figure_links(base: str, summary: dict[str, Any] | None) -> list[dict[str, Any]]:
     """summary.json's figures with the URLs that serve them (`base` + name + .png/.svg)."""
     return [

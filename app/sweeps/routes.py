@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Path, Query, status
 from fastapi.responses import FileResponse
@@ -13,6 +13,7 @@ from app.api.schemas import ErrorRead
 from app.services.errors import Invalid
 from app.services.scenario_limits import check_size, check_world
 from app.settings import Settings
+from app.sweeps.files import SWEEP_FILES
 from app.sweeps.schemas import SweepCreate, SweepDetail, SweepPage, SweepRead, SweepStatus
 from app.sweeps.service import SweepManager
 from engine import Scenario, ScenarioError, reference_scenario
@@ -39,6 +40,10 @@ FigureName = Annotated[
     ),
 ]
 _MEDIA = {"png": "image/png", "svg": "image/svg+xml"}
+FileName = Annotated[
+    Literal[tuple(SWEEP_FILES)],  # type: ignore[valid-type]
+    Path(description="a result file: " + ", ".join(SWEEP_FILES)),
+]
 
 
 async def get_sweeps(services: ServicesDep) -> SweepManager:
@@ -104,6 +109,18 @@ async def get_figure(sweep_id: SweepId, name: FigureName, sweeps: SweepsDep) -> 
     """A figure of a completed sweep, as PNG or SVG."""
     path = await sweeps.figure(sweep_id, name)
     return FileResponse(path, media_type=_MEDIA[path.suffix.lstrip(".")])
+
+
+@router.get(
+    "/{sweep_id}/files/{name}",
+    dependencies=[Viewer],
+    response_class=FileResponse,
+    responses={200: {"content": {m: {} for m in SWEEP_FILES.values()}, "description": "the file"}},
+)
+async def get_file(sweep_id: SweepId, name: FileName, sweeps: SweepsDep) -> FileResponse:
+    """A result file of the sweep, as an attachment named `sweep-{id}-{name}`."""
+    path = await sweeps.file(sweep_id, name)
+    return FileResponse(path, media_type=SWEEP_FILES[name], filename=f"sweep-{sweep_id}-{name}")
 
 
 @router.post("/{sweep_id}/cancel", dependencies=[Operator])

@@ -140,6 +140,14 @@ class SweepFigure(BaseModel):
     verdict: list[str]
 
 
+class SweepFile(BaseModel):
+    """A result file of the sweep (runs.csv, bounds.csv, summary.json, report.md)."""
+
+    name: str
+    url: str
+    media_type: str
+
+
 class SweepDetail(SweepRead):
     """A sweep with its scenario (before scaling), the runs journaled so far (each the
     `regolith run --json` metrics with `policy` and `seed`) and, once completed,
@@ -149,6 +157,7 @@ class SweepDetail(SweepRead):
     runs: list[dict[str, Any]]
     summary: dict[str, Any] | None
     figures: list[SweepFigure]
+    files: list[SweepFile] = Field(description="result files written so far, to download")
 
 
 class SweepPage(BaseModel):

@@ -30,7 +30,14 @@ from app.db.models import utcnow
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.store import Store
 from app.settings import Settings
-from app.sweeps.files import check_build, figure_links, read_results, set_aside
+from app.sweeps.files import (
+    SWEEP_FILES,
+    check_build,
+    figure_links,
+    file_links,
+    read_results,
+    set_aside,
+)
 from app.sweeps.job import SweepJob, halt, progress_fields, work
 from engine import POLICY_NAMES, Scenario, ScenarioError, reference_scenario, resolve_policy
 from experiments.spec import PolicyRef, SpecError, SweepSpec, make_spec, parse_policies
@@ -267,7 +274,18 @@ class SweepManager:
             done = out["status"] == "completed"
             out.update(await run_in_threadpool(read_results, self.out_dir(sweep_id), row, done))
         out["figures"] = figure_links(f"/api/sweeps/{sweep_id}/{FIG_DIR}", out["summary"])
+        out["files"] = await run_in_threadpool(file_links, self.out_dir(sweep_id), sweep_id)
         return out
+
+    async def file(self, sweep_id: int, name: str) -> Path:
+        """One of the sweep's result files (`SWEEP_FILES`), once written."""
+        await self._row(sweep_id)
+        if name not in SWEEP_FILES:
+            raise NotFound(f"sweep {sweep_id} has no file {name!r}")
+        path = self.out_dir(sweep_id) / name
+        if not await run_in_threadpool(path.is_file):
+            raise NotFound(f"sweep {sweep_id} has no {name} yet")
+        return path
 
     async def figure(self, sweep_id: int, name: str) -> Path:
         """A figure file of the sweep; the name must stay inside its figures folder."""

@@ -11,10 +11,39 @@ export function getToken() {
   }
 }
 
+let rejected = false; // the server refused the kept token (403) since it was saved
+
 export function setToken(token) {
   if (token) localStorage.setItem(TOKEN_KEY, token);
   else localStorage.removeItem(TOKEN_KEY);
+  rejected = false;
   for (const fn of listeners) fn(Boolean(token));
+}
+
+/** Has the server refused the kept token? (cleared when a token is saved or forgotten) */
+export const tokenRejected = () => rejected;
+
+function markRejected() {
+  if (rejected || !getToken()) return;
+  rejected = true;
+  for (const fn of listeners) fn(isOperator());
+}
+
+/**
+ * Ask the server whether `token` is the operator's (GET /api/auth/check) before keeping it:
+ * null when it is, else why not.
+ */
+export async function checkToken(token) {
+  let res;
+  try {
+    res = await fetch("/api/auth/check", { headers: { Accept: "application/json", Authorization: `Bearer ${token}` } });
+  } catch {
+    return "The server could not be reached; the token was not saved.";
+  }
+  if (res.ok) return null;
+  if (res.status === 403) return "The server did not accept this token.";
+  if (res.status === 429) return "Too many attempts; wait a moment and try again.";
+  return `The server answered ${res.status}; the token was not saved.`;
 }
 
 export const isOperator = () => Boolean(getToken());
@@ -60,7 +89,10 @@ export async function api(method, path, body) {
     let detail = data && typeof data === "object" && "detail" in data ? data.detail : data;
     if (data && typeof data === "object" && typeof data.message === "string") detail = data.message; // 422s name the field
     if (res.status === 401) detail = "An operator token is needed for this.";
-    if (res.status === 403) detail = "The operator token was not accepted.";
+    if (res.status === 403) {
+      detail = "The operator token was not accepted.";
+      markRejected();
+    }
     throw new ApiError(res.status, detail || res.statusText);
   }
   return data;

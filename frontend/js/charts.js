@@ -10,12 +10,59 @@ function svgEl(tag, attrs = {}, text) {
   return el;
 }
 
-function frame(container) {
+/** The chart's SVG; `lines` x-label lines (1 or 2) are kept clear below the plot. */
+function frame(container, lines = 1) {
   const w = Math.max(160, container.clientWidth || 300);
   const hgt = Math.max(80, container.clientHeight || 120);
   const svg = svgEl("svg", { viewBox: `0 0 ${w} ${hgt}`, role: "img" });
   container.replaceChildren(svg);
-  return { svg, w, hgt, iw: w - PAD.l - PAD.r, ih: hgt - PAD.t - PAD.b };
+  const b = PAD.b + (lines - 1) * 11;
+  return { svg, w, hgt, b, iw: w - PAD.l - PAD.r, ih: hgt - PAD.t - b };
+}
+
+let measurer = null;
+/** Width of `text` in the charts' 10 px font. */
+export function textWidth(text) {
+  measurer ||= document.createElement("canvas").getContext("2d");
+  measurer.font = "10px system-ui, sans-serif";
+  return measurer.measureText(text).width;
+}
+
+/**
+ * `text` as at most two lines no wider than `max`: on one line, else split at its last space,
+ * else the same with `abbr` (a shorter name), else cut with "…".
+ */
+export function fitLabel(text, max, abbr) {
+  const fits = (t) => textWidth(t) <= max;
+  const split = (t) => {
+    const at = t.lastIndexOf(" ");
+    return at > 0 ? [t.slice(0, at), t.slice(at + 1)] : [t];
+  };
+  for (const t of abbr ? [text, abbr] : [text]) {
+    if (fits(t)) return [t];
+    if (split(t).every(fits)) return split(t);
+  }
+  const cut = (t) => {
+    if (fits(t)) return t;
+    let n = t.length;
+    while (n > 1 && !fits(`${t.slice(0, n)}…`)) n -= 1;
+    return `${t.slice(0, n)}…`;
+  };
+  return split(abbr || text).map(cut);
+}
+
+/** Fitted x labels of one width (with their short forms): their lines, and the most lines any needs. */
+function fitAll(labels, max, abbrs = []) {
+  const fitted = labels.map((t, i) => fitLabel(t, max, abbrs[i]));
+  return { fitted, lines: Math.max(1, ...fitted.map((f) => f.length)) };
+}
+
+/** An x label under the plot (its full text in a tooltip when cut or wrapped). */
+function xLabel(svg, x, top, lines, full) {
+  const t = svgEl("text", { x, y: top, "text-anchor": "middle", class: "xlabel" });
+  lines.forEach((line, i) => t.append(svgEl("tspan", { x, dy: i ? 11 : 0 }, line)));
+  if (lines.join(" ") !== full) t.append(svgEl("title", {}, full));
+  svg.append(t);
 }
 
 /** Round numbers for axis ticks: 0, step, 2·step … ≥ max. */
@@ -92,14 +139,21 @@ export function stepChart(container, series, { xMax, yMax, xFmt = short, xTicks 
  * Grouped bars. groups: [{label, bars: [{name, value, colour, err?: [lo, hi]}]}].
  */
 export function barChart(container, groups, { emptyText = "no data yet", unit = "" } = {}) {
-  const { svg, w, hgt, iw, ih } = frame(container);
+  const probe = Math.max(160, container.clientWidth || 300);
+  const gw = (probe - PAD.l - PAD.r) / Math.max(1, groups.length);
+  const { fitted, lines } = fitAll(
+    groups.map((g) => g.label),
+    gw - 4,
+    groups.map((g) => g.abbr),
+  );
+  const { svg, w, hgt, b: bottom, ih } = frame(container, lines);
   const values = groups.flatMap((g) => g.bars.flatMap((b) => [b.value, ...(b.err || [])]));
   if (!values.some((v) => v > 0)) return empty(svg, w, hgt, emptyText);
-  const ticks = niceTicks(Math.max(...values));
+  // room above the tallest bar or whisker for its value
+  const ticks = niceTicks(Math.max(...values) * 1.12);
   const ym = ticks[ticks.length - 1];
   const y = (v) => PAD.t + ih - (Math.max(0, v) / ym) * ih;
   yAxis(svg, ticks, y, w);
-  const gw = iw / groups.length;
   groups.forEach((g, gi) => {
     const n = g.bars.length;
     const bw = Math.min(34, (gw * 0.8) / n);
@@ -114,11 +168,14 @@ export function barChart(container, groups, { emptyText = "no data yet", unit = 
         const cx = bx + bw / 2;
         svg.append(svgEl("path", { d: `M${cx},${y(b.err[0])}V${y(b.err[1])}M${cx - 3},${y(b.err[0])}H${cx + 3}M${cx - 3},${y(b.err[1])}H${cx + 3}`, stroke: "#e6edf3", "stroke-width": 1.2, fill: "none" }));
       }
-      if (bw >= 30 && n <= 4) {
-        svg.append(svgEl("text", { x: bx + bw / 2, y: top - 2, "text-anchor": "middle" }, short(b.value)));
+      // the value above the bar, or above its whisker: never on it
+      const text = short(b.value);
+      if (textWidth(text) <= bw && n <= 4) {
+        const over = b.err ? Math.min(top, y(b.err[1])) : top;
+        svg.append(svgEl("text", { x: bx + bw / 2, y: over - 3, "text-anchor": "middle", class: "value" }, text));
       }
     });
-    svg.append(svgEl("text", { x: PAD.l + gi * gw + gw / 2, y: hgt - 4, "text-anchor": "middle" }, g.label));
+    xLabel(svg, PAD.l + gi * gw + gw / 2, hgt - bottom + 14, fitted[gi], g.label);
   });
 }
 
@@ -127,7 +184,11 @@ export function barChart(container, groups, { emptyText = "no data yet", unit = 
  * cats: [{label, colour, values: [number]}]
  */
 export function stripChart(container, cats, { emptyText = "no data yet" } = {}) {
-  const { svg, w, hgt, iw, ih } = frame(container);
+  const probe = Math.max(160, container.clientWidth || 300);
+  const names = cats.map((c) => `${c.label} (${c.values.length})`);
+  const abbrs = cats.map((c) => c.abbr && `${c.abbr} (${c.values.length})`);
+  const { fitted, lines } = fitAll(names, (probe - PAD.l - PAD.r) / Math.max(1, cats.length) - 4, abbrs);
+  const { svg, w, hgt, b: bottom, iw, ih } = frame(container, lines);
   const all = cats.flatMap((c) => c.values);
   if (!all.length) return empty(svg, w, hgt, emptyText);
   const ticks = niceTicks(Math.max(...all, 0.1));
@@ -148,6 +209,6 @@ export function stripChart(container, cats, { emptyText = "no data yet" } = {}) 
       const med = sorted.length % 2 ? sorted[mid] : (sorted[mid - 1] + sorted[mid]) / 2;
       svg.append(svgEl("line", { x1: cx - spread - 4, x2: cx + spread + 4, y1: y(med), y2: y(med), stroke: "#e6edf3", "stroke-width": 2 }));
     }
-    svg.append(svgEl("text", { x: cx, y: hgt - 4, "text-anchor": "middle" }, `${c.label} (${c.values.length})`));
+    xLabel(svg, cx, hgt - bottom + 14, fitted[i], names[i]);
   });
 }

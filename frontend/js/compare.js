@@ -1,45 +1,36 @@
-// The compare page: pick finished missions (or a sweep) and see the three figures per policy.
+// The compare page: pick finished missions of one scenario (or a sweep) and see the three
+// figures per policy. Different scenarios are never pooled, and a run whose policy was
+// switched live counts under no single policy (comparegroups.js).
 
 import { $, h, fmt } from "./dom.js";
 import { get, qs } from "./api.js";
 import { barChart, stripChart } from "./charts.js";
-import { KIND_LABEL } from "./palette.js";
+import { KIND_ABBR, KIND_LABEL, TYPE_ABBR } from "./palette.js";
 import { missionMetrics, shortId } from "./missions.js";
-import { policyColour as colour, policyLabel, policyRank as rank, policyShort } from "./policies.js";
 import { SweepPanel } from "./sweeps.js";
+import { groupColour as colour, groupLabel, groupOf, groupOrder, groupShort, meanCi, policyText, scenarioKey, scenarios } from "./comparegroups.js";
 
 const TYPES = ["scout", "excavator", "hauler"];
 const KINDS = ["scout_excavator", "excavator_hauler"];
-
-/** Mean and a 95% confidence interval of the mean (normal approximation; t for small n). */
-export function meanCi(values) {
-  const n = values.length;
-  if (!n) return null;
-  const mean = values.reduce((a, b) => a + b, 0) / n;
-  if (n < 2) return { mean, lo: mean, hi: mean, n };
-  const sd = Math.sqrt(values.reduce((a, b) => a + (b - mean) ** 2, 0) / (n - 1));
-  const t = [12.71, 4.3, 3.18, 2.78, 2.57, 2.45, 2.36, 2.31, 2.26][n - 2] ?? 1.96;
-  const half = (t * sd) / Math.sqrt(n);
-  return { mean, lo: mean - half, hi: mean + half, n };
-}
 
 export class ComparePage {
   constructor() {
     this.missions = [];
     this.selected = new Set();
     this.metrics = new Map(); // mission id -> metrics
-    this.sweep = null; // a picked sweep's runs, shown instead of the missions
-    this.sweepId = null;
+    this.sweep = null; // a picked sweep: its runs are shown instead of the missions
     this.touched = false;
+    this.scenario = null; // the scenario key compared (one at a time)
+    this.includeMixed = false;
     this.sweeps = new SweepPanel({
       onPick: (detail) => {
-        this.sweep = detail ? detail.runs : null;
-        this.sweepId = detail ? detail.id : null;
+        this.sweep = detail;
+        this.renderList();
         this.draw();
       },
     });
     $("#compare-all").addEventListener("click", () => {
-      for (const m of this.missions) this.selected.add(m.id);
+      for (const m of this.shown()) this.selected.add(m.id);
       this.dropSweep();
       this.renderList();
       this.update();
@@ -48,6 +39,17 @@ export class ComparePage {
       this.touched = true;
       this.selected.clear();
       this.dropSweep();
+      this.renderList();
+      this.update();
+    });
+    $("#compare-scenario").addEventListener("change", (e) => {
+      this.scenario = e.target.value;
+      this.dropSweep();
+      this.renderList();
+      this.update();
+    });
+    $("#compare-mixed").addEventListener("change", (e) => {
+      this.includeMixed = e.target.checked;
       this.renderList();
       this.update();
     });
@@ -62,46 +64,75 @@ export class ComparePage {
       this.missions = [];
     }
     if (!this.touched) for (const m of this.missions) this.selected.add(m.id); // all, until the user picks
+    this.renderScenarios();
     this.renderList();
     this.sweeps.show();
     this.update();
   }
 
+  /** One scenario at a time: the one with most runs until the user picks another. */
+  renderScenarios() {
+    const list = scenarios(this.missions);
+    if (!list.some((s) => s.key === this.scenario)) this.scenario = list[0]?.key ?? null;
+    const sel = $("#compare-scenario");
+    const options = list.map((s) => h("option", { value: s.key, selected: s.key === this.scenario }, `${s.name} · ${s.hash.slice(0, 6)} (${s.count})`));
+    sel.replaceChildren(...(options.length ? options : [h("option", { value: "" }, "none yet")]));
+    sel.disabled = list.length < 2;
+    sel.title = list.length < 2 ? "Every finished mission has this scenario" : "Runs of different scenarios are never pooled: pick one";
+  }
+
+  /** The finished missions of the picked scenario. */
+  shown() {
+    return this.missions.filter((m) => scenarioKey(m) === this.scenario);
+  }
+
   dropSweep() {
     this.sweep = null;
-    this.sweepId = null;
     this.sweeps.clear();
   }
 
   renderList() {
-    const rows = this.missions.map((m) =>
-      h(
+    const sweep = Boolean(this.sweep);
+    const rows = this.shown().map((m) => {
+      const off = m.mixed_policy && !this.includeMixed;
+      return h(
         "tr",
-        { dataset: { mission: m.id } },
+        { dataset: { mission: m.id, mixed: m.mixed_policy ? "true" : "false", scenario: m.scenario_hash } },
         h(
           "td",
           {},
           h("input", {
             type: "checkbox",
-            checked: this.selected.has(m.id),
+            checked: !sweep && !off && this.selected.has(m.id),
+            disabled: off,
+            title: off ? "Its policy was switched live: tick “Include mixed-policy runs” to compare it" : "",
             "aria-label": `Compare mission ${m.id}`,
             onchange: (e) => {
               this.touched = true;
               if (e.target.checked) this.selected.add(m.id);
               else this.selected.delete(m.id);
-              this.dropSweep();
+              if (sweep) {
+                // back from a sweep: the ticks shown are the selection
+                this.selected = new Set(e.target.checked ? [m.id] : []);
+                this.dropSweep();
+                this.renderList();
+              }
               this.update();
             },
           }),
         ),
         h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
-        h("td", {}, policyLabel(m.policy)),
+        h("td", { class: "policy-cell", title: policyText(m) }, policyText(m), m.mixed_policy ? h("span", { class: "badge mixed", title: "The policy was switched during the run" }, "mixed") : null),
+        h("td", { class: "scenario-cell", title: `${m.scenario_name} (hash ${m.scenario_hash})` }, m.scenario_name),
         h("td", { class: "num" }, m.seed),
         h("td", { class: "num" }, fmt(this.metrics.get(m.id)?.makespan_s, 0)),
-      ),
-    );
-    if (!rows.length) rows.push(h("tr", {}, h("td", { colspan: 5, class: "muted" }, "No completed missions yet.")));
+      );
+    });
+    if (!rows.length) rows.push(h("tr", {}, h("td", { colspan: 6, class: "muted" }, "No completed missions yet.")));
     $("#compare-table tbody").replaceChildren(...rows);
+    $("#compare-table").dataset.sweep = sweep ? String(this.sweep.id) : "";
+    $("#compare-missions-note").hidden = !sweep;
+    $("#compare-missions-note").textContent = sweep ? `Showing sweep ${this.sweep.id}; tick a mission to compare missions again.` : "";
   }
 
   async update() {
@@ -119,36 +150,40 @@ export class ComparePage {
     this.draw();
   }
 
+  /** The runs compared, each with the `group` it counts under. */
   runs() {
-    if (this.sweep) return this.sweep;
-    return [...this.selected].map((id) => this.metrics.get(id)).filter(Boolean);
+    if (this.sweep) return this.sweep.runs.map((r) => ({ ...r, group: r.policy }));
+    return this.shown()
+      .filter((m) => this.selected.has(m.id) && (this.includeMixed || !m.mixed_policy))
+      .map((m) => this.metrics.has(m.id) && { ...this.metrics.get(m.id), group: groupOf(m) })
+      .filter(Boolean);
   }
 
   draw() {
     const runs = this.runs();
-    const present = [...new Set(runs.map((r) => r.policy))].filter(Boolean).sort((a, b) => rank(a) - rank(b) || a.localeCompare(b));
-    const by = Object.fromEntries(present.map((p) => [p, runs.filter((r) => r.policy === p)]));
-    const source = this.sweep ? `sweep ${this.sweepId} · ` : "";
-    $("#compare-n").textContent = runs.length ? `· ${source}${runs.length} runs` : "";
+    const present = [...new Set(runs.map((r) => r.group))].filter(Boolean).sort(groupOrder);
+    const by = Object.fromEntries(present.map((p) => [p, runs.filter((r) => r.group === p)]));
+    const where = this.sweep ? `sweep ${this.sweep.id} · ${this.sweep.scenario_name}` : this.shown()[0]?.scenario_name;
+    $("#compare-n").textContent = runs.length ? `· ${where} · ${runs.length} runs` : "";
     const empty = this.sweep ? "no finished runs in this sweep yet" : "pick finished missions";
     stripChart(
       $("#cmp-makespan"),
-      present.map((p) => ({ label: policyShort(p), colour: colour(p), values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
+      present.map((p) => ({ label: groupShort(p), colour: colour(p), values: by[p].map((r) => r.makespan_s).filter(Number.isFinite) })),
       { emptyText: empty },
     );
     const bars = (getter) =>
       present.map((p) => {
         const ci = meanCi(by[p].map(getter).filter(Number.isFinite));
-        return { name: policyLabel(p), value: ci ? ci.mean : 0, colour: colour(p), err: ci && ci.n > 1 ? [ci.lo, ci.hi] : undefined };
+        return { name: groupLabel(p), value: ci ? ci.mean : 0, colour: colour(p), err: ci && ci.n > 1 ? [ci.lo, ci.hi] : undefined };
       });
     barChart(
       $("#cmp-distance"),
-      TYPES.map((t) => ({ label: t, bars: bars((r) => r.distance?.[t]) })),
+      TYPES.map((t) => ({ label: t, abbr: TYPE_ABBR[t], bars: bars((r) => r.distance?.[t]) })),
       { emptyText: empty, unit: " m" },
     );
     barChart(
       $("#cmp-auction"),
-      KINDS.map((k) => ({ label: KIND_LABEL[k], bars: bars((r) => r.auction_open_s?.[k]?.mean) })),
+      KINDS.map((k) => ({ label: KIND_LABEL[k], abbr: KIND_ABBR[k], bars: bars((r) => r.auction_open_s?.[k]?.mean) })),
       { emptyText: empty, unit: " s" },
     );
     this.summary(present, by);
@@ -174,9 +209,9 @@ export class ComparePage {
       ["declines", (rs) => cell(rs.map((r) => r.declines))],
       ["messages", (rs) => cell(rs.map((r) => r.messages))],
     ];
-    table.replaceChildren(
+    return table.replaceChildren(
       h("caption", { class: "sr-only" }, "Mean ± 95% confidence interval per policy"),
-      h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "mean ± 95% CI"), present.map((p) => h("th", { scope: "col", class: "num", style: `color:${colour(p)}` }, policyLabel(p))))),
+      h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "mean ± 95% CI"), present.map((p) => h("th", { scope: "col", class: "num", style: `color:${colour(p)}` }, groupLabel(p))))),
       h("tbody", {}, rows.map(([label, f]) => h("tr", {}, h("th", { scope: "row" }, label), present.map((p) => h("td", { class: "num" }, f(by[p])))))),
     );
   }

@@ -149,7 +149,7 @@ export class Controls {
       return;
     }
     const form = this.form;
-    const wrap = $("#map-wrap");
+    const wrap = $("#map-stage"); // the canvas's own box: the form is placed in it
     form.x.value = fmt(x, 1);
     form.y.value = fmt(y, 1);
     this.showPick({ x, y });

@@ -2,14 +2,17 @@
 // feed and the charts; the operator's controls call the REST API. The mission's status is
 // the server's word only (status.js): frames move robots and the clock, never the status.
 
-import { $, clock, fmt, h, toast } from "./dom.js";
-import { get, getToken, isOperator, qs } from "./api.js";
+import { $, clock, fmt, toast } from "./dom.js";
+import { get, qs } from "./api.js";
+import { LiveStream } from "./stream.js";
 import { MapView } from "./mapview.js";
 import { AuctionFeed } from "./feed.js";
 import { RobotTable } from "./robots.js";
 import { LiveCharts } from "./livecharts.js";
 import { Controls } from "./controls.js";
 import { ENDED, LIVE, MissionStatus } from "./status.js";
+import { COUNTER_KEYS, loadFinal, showCounters, validId } from "./final.js";
+import { exposeLive } from "./liveexpose.js";
 
 const DETAIL_MS = 1000; // robot list (paths, tasks, distance) refresh while the stream runs
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
@@ -23,9 +26,13 @@ function pick(obj, keys) {
 export class LiveView {
   constructor() {
     this.id = null;
-    this.ws = null;
-    this.retry = null;
+    this.stream = new LiveStream({
+      onMessage: (msg) => this.handle(msg),
+      onNotFound: () => this._notFound(this.id),
+      retry: () => !this.finished,
+    });
     this.poll = null;
+    this.finalShown = null; // the id whose stored ending is shown
     this.state = this._empty();
     // the parts below know this view only through these callbacks
     this.map = new MapView($("#map"), {
@@ -42,10 +49,12 @@ export class LiveView {
       onControls: (operator, live) => {
         this.table.setControl(operator, !live);
         if (!live) this.controls.closePick();
+        if (live && this.finalShown !== null) this._unfinal({ resumed: true });
       },
       onEnded: (simTime) => {
         this.state.t = simTime;
         $("#live-time").textContent = clock(simTime);
+        this._showFinal();
       },
     });
     this.controls = new Controls({
@@ -60,7 +69,7 @@ export class LiveView {
     $("#toggle-labels").addEventListener("change", (e) => this.map.setOption("labels", e.target.checked));
     $("#map-fit").addEventListener("click", () => this.map.fit());
     $("#feed-open-only").addEventListener("change", (e) => $("#auction-feed").classList.toggle("open-only", e.target.checked));
-    this._expose();
+    exposeLive(this);
   }
 
   _empty() {
@@ -105,12 +114,13 @@ export class LiveView {
 
   /** Show mission `id` (or nothing), reconnecting the stream. */
   open(id) {
-    if (id === this.id && this.ws) return;
+    if (id === this.id && this.stream.open) return undefined;
     this.close();
     this.id = id;
-    $("#live-empty").hidden = Boolean(id);
-    $("#live").hidden = !id;
+    this._unfinal();
+    this._empty_view(id ? "" : "none");
     if (!id) return;
+    if (!validId(id)) return this._notFound(id);
     this.state = this._empty();
     this.status.reset();
     this.status.set({});
@@ -118,60 +128,50 @@ export class LiveView {
     this.table.reset();
     this.charts.reset();
     $("#live-mission-id").textContent = id;
-    this._connect();
+    this.opened = (this.opened || 0) + 1;
+    this._start(id, this.opened);
+    return undefined;
+  }
+
+  /** Ask for the record first: an unknown mission is said so, without a stream or polls. */
+  async _start(id, opened) {
+    const current = () => opened === this.opened && id === this.id; // not reopened meanwhile
+    try {
+      await get(`/missions/${encodeURIComponent(id)}`);
+    } catch (err) {
+      if (current() && err.status === 404) this._notFound(id);
+      else if (current()) toast(`Mission ${id}: ${err.message}`, "error");
+      if (err.status === 404 || err.status === 422) return;
+    }
+    if (!current()) return;
+    this.stream.connect(id);
     this._loadHistory();
     this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
   }
 
+  /** The empty live page: "none" (no mission picked), "not-found", or "" (a mission shown). */
+  _empty_view(reason) {
+    const box = $("#live-empty");
+    box.hidden = !reason;
+    box.dataset.reason = reason;
+    $("#live-empty-none").hidden = reason !== "none";
+    $("#live-empty-missing").hidden = reason !== "not-found";
+    $("#live").hidden = Boolean(reason);
+  }
+
+  _notFound(id) {
+    this._empty_view("not-found");
+    $("#live-missing-id").textContent = id;
+    document.title = "Regolith · mission not found";
+  }
+
   close() {
-    clearTimeout(this.retry);
+    this.opened = (this.opened || 0) + 1; // a pending _start gives up
+    this.stream.close();
     clearInterval(this.poll);
     this.poll = null;
-    if (this.ws) {
-      this.ws.onclose = null;
-      this.ws.close();
-      this.ws = null;
-    }
     this.map.stop();
     this.id = null;
-  }
-
-  _connect(withToken = false) {
-    const id = this.id;
-    const proto = location.protocol === "https:" ? "wss" : "ws";
-    // the token goes in the URL only when the server asked for it (it closed with 1008 before)
-    const q = withToken && getToken() ? `?token=${encodeURIComponent(getToken())}` : "";
-    const ws = new WebSocket(`${proto}://${location.host}/api/missions/${encodeURIComponent(id)}/live${q}`);
-    this.ws = ws;
-    this._conn("connecting");
-    ws.onopen = () => this._conn("open");
-    ws.onmessage = (e) => {
-      let msg;
-      try {
-        msg = JSON.parse(e.data);
-      } catch {
-        return;
-      }
-      this.handle(msg);
-    };
-    ws.onclose = (e) => {
-      this._conn("closed");
-      this.ws = null;
-      if (e.code === 4404) return toast(`Mission ${id} was not found.`, "error");
-      const needToken = e.code === 1008;
-      if (needToken && (withToken || !getToken())) return toast("This server needs an operator token even to watch.", "error");
-      if (this.id === id && (!this.finished || needToken)) {
-        this.retry = setTimeout(() => this.id === id && this._connect(needToken || withToken), needToken ? 0 : 1500);
-      }
-      return undefined;
-    };
-    ws.onerror = () => {};
-  }
-
-  _conn(state) {
-    const el = $("#live-conn");
-    el.dataset.conn = state;
-    el.title = `Stream ${state}`;
   }
 
   /** One message from the live stream. */
@@ -209,9 +209,11 @@ export class LiveView {
     // or a restart); the record's policy is the current one
     this.status.set({ status: m.status, policy: m.policy, speed: m.speed, error: m.error });
     this._frame(snap, { snap: true });
+    if (m.status && !LIVE.has(m.status)) this._showFinal(); // ended or interrupted: as stored
   }
 
   _frame(f, { snap = false } = {}) {
+    if (this.finalShown === this.id && !snap) return; // the stored ending is shown
     const s = this.state;
     s.t = f.t;
     s.frames += 1;
@@ -235,23 +237,7 @@ export class LiveView {
   }
 
   _counters(f) {
-    const c = f.counters; // {} until the first frame of a mission stored without a state
-    const grid = this.state.map?.grid;
-    const cells = grid ? grid.cols * grid.rows : null;
-    const items = [
-      ["sites", `${c.sites_found ?? "–"}/${c.sites_total ?? "–"}`],
-      ["minerals", `${c.minerals_delivered ?? "–"}/${c.minerals_total ?? "–"}`],
-      ["scanned", cells && f.scanned_count !== undefined ? `${Math.round((100 * f.scanned_count) / cells)}%` : "–"],
-      ["auctions", c.auctions ?? "–"],
-      ["bids", c.bids ?? "–"],
-      ["declines", c.declines ?? "–"],
-    ];
-    const box = $("#live-counters");
-    const text = items.map(([k, v]) => `${k}=${v}`).join(";");
-    if (box.dataset.text !== text) {
-      box.dataset.text = text;
-      box.replaceChildren(...items.flatMap(([k, v]) => [h("span", {}, k), h("b", { dataset: { counter: k } }, v)]));
-    }
+    showCounters($("#live-counters"), f, this.state.map?.grid);
   }
 
   /** {seq, t, kind, data}: the engine's event (data as docs/engine-api.md lists it). */
@@ -327,7 +313,7 @@ export class LiveView {
     if (!id || document.hidden) return;
     try {
       const list = await get(`/missions/${encodeURIComponent(id)}/robots`); // [RobotRead]
-      if (id !== this.id) return;
+      if (id !== this.id || this.finalShown === id) return; // may predate the ending
       this._setDetail(list);
       this._poseFromDetail(list);
       if (this.finished) {
@@ -337,6 +323,44 @@ export class LiveView {
     } catch {
       // the stream still shows positions; the next poll retries
     }
+  }
+
+  /** Redraw everything (robots, table, counters, clock, charts) from the stored ending. */
+  async _showFinal() {
+    const id = this.id;
+    if (!id || this.finalLoading === id) return;
+    this.finalLoading = id;
+    let fin = null;
+    try {
+      fin = await loadFinal(id);
+    } catch {
+      /* the stream's view stays; a reconnect tries again */
+    }
+    if (this.finalLoading === id) this.finalLoading = null;
+    if (!fin || id !== this.id || LIVE.has(this.status.status)) return;
+    const s = this.state;
+    this.finalShown = id;
+    clearInterval(this.poll);
+    this.poll = null;
+    this._setDetail(fin.robots);
+    s.robots = new Map(fin.robots.map((r) => [r.name, pick(r, FRAME_FIELDS)]));
+    this.map.setRobots(fin.robots, { snap: true });
+    $("#map").dataset.robotCount = String(fin.robots.length);
+    this.table.update(fin.robots);
+    s.t = fin.mission.sim_time;
+    $("#live-time").textContent = clock(s.t);
+    if (fin.metrics) s.counters = { ...s.counters, ...pick(fin.metrics, COUNTER_KEYS) };
+    this._counters({ ...(s.lastFrame || {}), counters: s.counters });
+    this.charts.showFinal({ t: s.t, deliveries: fin.deliveries, metrics: fin.metrics, robots: fin.robots, openTimes: fin.openTimes });
+    $("#live").dataset.final = "true";
+  }
+
+  /** Back to the stream's word: another mission, or this one resumed (polls again). */
+  _unfinal({ resumed = false } = {}) {
+    this.finalShown = null;
+    this.charts.final = false;
+    delete $("#live").dataset.final;
+    if (resumed && this.id && !this.poll) this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
   }
 
   async _loadHistory() {
@@ -359,40 +383,5 @@ export class LiveView {
     } catch {
       /* the chart fills from frames */
     }
-  }
-
-  _expose() {
-    // read-only debug state for tests and the curious: the canvas itself cannot be queried
-    const view = this;
-    window.__regolith = {
-      get missionId() {
-        return view.id;
-      },
-      get status() {
-        return view.status.status;
-      },
-      get policy() {
-        return view.status.policy;
-      },
-      get frames() {
-        return view.state.frames;
-      },
-      get lastCounters() {
-        return { ...view.state.counters };
-      },
-      get t() {
-        return view.state.t;
-      },
-      get map() {
-        return view.state.map;
-      },
-      get robots() {
-        return [...view.state.robots.values()].map((r) => ({ ...r }));
-      },
-      get auctions() {
-        return [...view.feed.records.values()];
-      },
-      pagePoint: (x, y) => view.map.pagePoint(x, y),
-    };
   }
 }

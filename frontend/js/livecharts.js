@@ -3,7 +3,8 @@
 
 import { $ } from "./dom.js";
 import { barChart, stepChart, stripChart, timeTicks } from "./charts.js";
-import { KIND_COLOUR, KIND_LABEL, TYPE_COLOUR, robotType } from "./palette.js";
+import { KIND_ABBR, KIND_COLOUR, KIND_LABEL, TYPE_ABBR, TYPE_COLOUR, robotType } from "./palette.js";
+import { distanceByType } from "./final.js";
 
 const REDRAW_MS = 1000;
 
@@ -29,10 +30,12 @@ export class LiveCharts {
     this.total = null;
     this.t = 0;
     this.drawnAt = 0;
+    this.final = false; // showing the stored ending: the stream no longer moves the charts
   }
 
   /** A frame: its simulation time and the engine's counters. */
   onFrame({ t, counters }) {
+    if (this.final) return;
     this.t = t;
     const c = counters;
     if (c.minerals_total !== undefined) this.total = c.minerals_total;
@@ -46,6 +49,7 @@ export class LiveCharts {
   }
 
   onDetail(list) {
+    if (this.final) return;
     const sum = {};
     for (const r of list) {
       const type = robotType(r);
@@ -56,11 +60,30 @@ export class LiveCharts {
 
   /** Backfill from stored `delivered` events when joining a running mission. */
   loadDeliveries(events) {
-    if (!events.length) return;
+    if (!events.length || this.final) return;
     const sorted = [...events].sort((a, b) => a.t - b.t || a.seq - b.seq);
     this.delivered = sorted.map((e) => [e.t, e.data.delivered]);
     this.last = this.delivered[this.delivered.length - 1][1];
     this.draw();
+  }
+
+  /** The stored ending: the whole delivery curve, the final time, the stored distances. */
+  showFinal({ t, deliveries, metrics, robots, openTimes }) {
+    this.final = true;
+    this.finalOpen = openTimes;
+    this.t = t;
+    const sorted = [...deliveries].sort((a, b) => a.t - b.t || a.seq - b.seq);
+    this.delivered = sorted.map((e) => [e.t, e.data.delivered]);
+    this.last = this.delivered.length ? this.delivered[this.delivered.length - 1][1] : null;
+    if (metrics && metrics.minerals_total !== undefined) this.total = metrics.minerals_total;
+    this.distance = distanceByType(metrics, robots, robotType);
+    this.draw();
+  }
+
+  /** What the charts show (for tests): {t, delivered, total, distance, final}. */
+  figures() {
+    const open = this.final && this.finalOpen ? this.finalOpen : this.openTimes();
+    return { t: this.t, delivered: this.delivered.map((p) => [...p]), total: this.total, distance: { ...this.distance }, openTimes: open, final: this.final };
   }
 
   draw() {
@@ -76,14 +99,14 @@ export class LiveCharts {
     const types = ["scout", "excavator", "hauler"].filter((t) => t in this.distance);
     barChart(
       $("#chart-distance"),
-      types.map((t) => ({ label: t, bars: [{ name: t, value: this.distance[t], colour: TYPE_COLOUR[t] }] })),
+      types.map((t) => ({ label: t, abbr: TYPE_ABBR[t], bars: [{ name: t, value: this.distance[t], colour: TYPE_COLOUR[t] }] })),
       { unit: " m" },
     );
-    const times = this.openTimes();
+    const times = this.final && this.finalOpen ? this.finalOpen : this.openTimes();
     const kinds = ["scout_excavator", "excavator_hauler", "operator"].filter((k) => k in times || k !== "operator");
     stripChart(
       $("#chart-auctions"),
-      kinds.map((k) => ({ label: KIND_LABEL[k], colour: KIND_COLOUR[k], values: times[k] || [] })),
+      kinds.map((k) => ({ label: KIND_LABEL[k], abbr: KIND_ABBR[k], colour: KIND_COLOUR[k], values: times[k] || [] })),
       { emptyText: "no auction closed yet" },
     );
   }

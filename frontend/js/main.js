@@ -1,7 +1,7 @@
 // Entry point: hash routing between the three pages, the operator token, the map legend.
 
 import { $, $$, h } from "./dom.js";
-import { getToken, onTokenChange, setToken } from "./api.js";
+import { checkToken, getToken, onTokenChange, setToken, tokenRejected } from "./api.js";
 import { MissionsPage } from "./missions.js";
 import { LiveView } from "./live.js";
 import { ComparePage } from "./compare.js";
@@ -25,6 +25,7 @@ function route() {
     const id = parts[1] || lastLive;
     if (id) lastLive = id;
     $("[data-nav=live]").href = id ? `#/live/${encodeURIComponent(id)}` : "#/live";
+    document.title = `Regolith · ${id ? `mission ${id}` : page}`;
     live.open(id || null);
     live.applyControl();
   } else {
@@ -33,7 +34,7 @@ function route() {
   if (page === "missions") missions.show();
   else missions.hide();
   if (page === "compare") compare.show();
-  document.title = `Regolith · ${page === "live" && lastLive ? `mission ${lastLive}` : page}`;
+  if (page !== "live") document.title = `Regolith · ${page}`;
 }
 
 // operator token: asked once, kept in localStorage; without it everything is read-only
@@ -42,16 +43,35 @@ $("#token-button").addEventListener("click", () => {
   dialog.querySelector("input[name=token]").value = getToken();
   dialog.showModal();
 });
-dialog.addEventListener("close", () => {
+// Save asks the server first (GET /api/auth/check): a token it refuses is never kept
+$("#token-form").addEventListener("submit", async (e) => {
+  if (e.submitter?.value !== "save") return;
+  e.preventDefault();
   const input = dialog.querySelector("input[name=token]");
-  if (dialog.returnValue === "save") setToken(input.value.trim());
+  const error = $("#token-error");
+  const token = input.value.trim();
+  if (!token) {
+    setToken("");
+    return dialog.close("save");
+  }
+  error.textContent = "Checking…";
+  const why = await checkToken(token);
+  error.textContent = why || "";
+  if (why) return input.focus();
+  setToken(token);
+  return dialog.close("save");
+});
+dialog.addEventListener("close", () => {
   if (dialog.returnValue === "clear") setToken("");
-  input.value = "";
+  dialog.querySelector("input[name=token]").value = "";
+  $("#token-error").textContent = "";
 });
 onTokenChange((operator) => {
   const badge = $("#operator-status");
-  badge.dataset.mode = operator ? "operator" : "viewer";
-  badge.textContent = operator ? "Operator" : "Read-only";
+  const refused = operator && tokenRejected();
+  badge.dataset.mode = refused ? "rejected" : operator ? "operator" : "viewer";
+  badge.textContent = refused ? "Token refused" : operator ? "Operator" : "Read-only";
+  badge.title = refused ? "The server refused the kept token: enter the right one" : "";
   $("#token-button").textContent = operator ? "Change token…" : "Operator token…";
   $("#readonly-banner").hidden = operator;
   missions.applyControl();

@@ -1,5 +1,6 @@
 // Drawing the map scene: area, scanned cells, craters, plant, sites, paths, pairs, robots.
 
+import { Labels, label } from "./maplabels.js";
 import { FAILED_COLOUR, KIND_COLOUR, PLANT_COLOUR, SITE_COLOUR, TYPE_COLOUR, robotType, traceShape } from "./palette.js";
 
 const DOWN = new Set(["failed", "disabled"]);
@@ -76,9 +77,10 @@ export function drawScene(ctx, mv, poses) {
   ctx.strokeStyle = PLANT_COLOUR;
   ctx.lineWidth = 1.5;
   ctx.stroke();
-  const plantLabel = [px - 16, py + pr, px + 16, py + pr + 13];
-
-  drawSites(ctx, mv, P, s);
+  const labels = new Labels(ctx);
+  labels.block(px, py, pr);
+  labels.add("plant", [[px, py + pr + 11, "center"], [px, py - pr - 3, "center"]], "#c9d4e0");
+  const siteLabels = drawSites(ctx, mv, P, s, labels);
 
   // dropped minerals
   for (const d of scene.dropped) {
@@ -119,7 +121,10 @@ export function drawScene(ctx, mv, poses) {
 
   if (scene.options.paths) drawPaths(ctx, mv, poses, P);
   drawPairs(ctx, mv, poses, P);
-  drawRobots(ctx, mv, poses, P, s, now, plantLabel);
+  const robotLabels = drawRobots(ctx, mv, poses, P, s, now, labels);
+  // robots' names first, then the sites' counts, none over another or over a glyph
+  for (const [text, c, colour] of [...robotLabels, ...siteLabels]) labels.add(text, c, colour);
+  mv.drawn = { ...labels.draw(), order: robotLabels.order };
 }
 
 function drawScale(ctx, mv) {
@@ -139,9 +144,11 @@ function drawScale(ctx, mv) {
   label(ctx, "10 m", x + len / 2, y + 12, "#a3b1c2");
 }
 
-function drawSites(ctx, mv, P, s) {
+/** Draws the sites; returns their labels ([text, candidates, colour]) for placing. */
+function drawSites(ctx, mv, P, s, labels) {
   const { scene, map } = mv;
   const r = Math.max(5, 1.2 * s);
+  const out = [];
   if (scene.options.truth) {
     for (const site of map.sites) {
       const known = scene.sites.get(site.id);
@@ -154,7 +161,7 @@ function drawSites(ctx, mv, P, s) {
       ctx.lineWidth = 1.5;
       ctx.stroke();
       ctx.setLineDash([]);
-      label(ctx, String(site.minerals), sx, sy + 4, withAlpha(SITE_COLOUR, 0.7));
+      out.push([String(site.minerals), around(sx, sy, r + 2), withAlpha(SITE_COLOUR, 0.7)]);
     }
   }
   for (const site of scene.sites.values()) {
@@ -172,9 +179,21 @@ function drawSites(ctx, mv, P, s) {
     ctx.strokeStyle = empty ? "#6e7d8f" : "#0d1117";
     ctx.lineWidth = 1;
     ctx.stroke();
+    labels.block(sx, sy, r * 1.25);
     const text = site.total ? `${site.remaining}/${site.total}` : String(site.remaining ?? "");
-    label(ctx, text, sx + r * 1.4 + 2, sy + 4, empty ? "#8796a8" : SITE_COLOUR, "left");
+    out.push([text, around(sx, sy, r * 1.25 + 2), empty ? "#8796a8" : SITE_COLOUR]);
   }
+  return out;
+}
+
+/** Spots for a label beside a glyph of radius r at (x, y): right, left, below, above. */
+function around(x, y, r) {
+  return [
+    [x + r + 2, y + 4, "left"],
+    [x - r - 2, y + 4, "right"],
+    [x, y + r + 11, "center"],
+    [x, y - r - 3, "center"],
+  ];
 }
 
 function drawPaths(ctx, mv, poses, P) {
@@ -226,11 +245,14 @@ function drawPairs(ctx, mv, poses, P) {
   }
 }
 
-function drawRobots(ctx, mv, poses, P, s, now, plantLabel) {
+/** Draws the robots (one that is down last, on top: a failed robot must never hide under a
+ * working one); returns their labels ([text, candidates, colour]) for placing. */
+function drawRobots(ctx, mv, poses, P, s, now, labels) {
   const r = Math.min(11, Math.max(6, 0.9 * s));
   const scanR = mv.map.grid.cell_w / Math.SQRT2;
-  const list = [...poses.values()].sort((a, b) => (DOWN.has(b.state) ? 1 : 0) - (DOWN.has(a.state) ? 1 : 0));
-  const labels = [];
+  const isDown = (rb) => DOWN.has(rb.state) || rb.alive === false;
+  const list = [...poses.values()].sort((a, b) => Number(isDown(a)) - Number(isDown(b)));
+  const names = [];
   for (const rb of list) {
     const type = robotType(rb);
     const colour = TYPE_COLOUR[type] || TYPE_COLOUR.other;
@@ -288,28 +310,13 @@ function drawRobots(ctx, mv, poses, P, s, now, plantLabel) {
       ctx.lineTo(x - r, y + r);
       ctx.stroke();
     }
-    if (mv.scene.options.labels) labels.push([shortName(rb.name), x, y - r - 5, down ? "#8796a8" : "#e6edf3"]);
+    labels.block(x, y, r);
+    const spots = [[x, y - r - 4, "center"], ...around(x, y, r)];
+    // a robot that is down is named first, so a crowd never hides it
+    if (mv.scene.options.labels) names[down ? "unshift" : "push"]([shortName(rb.name), spots, down ? "#ffb38a" : "#e6edf3"]);
   }
-  // labels last, skipping any that would overlap one already drawn (a crowd at the plant)
-  const boxes = [plantLabel];
-  label(ctx, "plant", (plantLabel[0] + plantLabel[2]) / 2, plantLabel[3] - 2, "#c9d4e0");
-  for (const [text, lx, ly, colour] of labels) {
-    const w = text.length * 6.5 + 2;
-    const box = [lx - w / 2, ly - 10, lx + w / 2, ly + 2];
-    if (boxes.some((b) => box[0] < b[2] && box[2] > b[0] && box[1] < b[3] && box[3] > b[1])) continue;
-    boxes.push(box);
-    label(ctx, text, lx, ly, colour);
-  }
-}
-
-function label(ctx, text, x, y, colour, align = "center") {
-  ctx.font = "11px system-ui, 'DejaVu Sans', sans-serif";
-  ctx.textAlign = align;
-  ctx.lineWidth = 3;
-  ctx.strokeStyle = "rgba(13,17,23,0.85)";
-  ctx.strokeText(text, x, y);
-  ctx.fillStyle = colour;
-  ctx.fillText(text, x, y);
+  names.order = list.map((rb) => rb.name); // the drawing order, bottom to top
+  return names;
 }
 
 function segDist(x, y, a, b) {

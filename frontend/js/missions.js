@@ -2,7 +2,7 @@
 
 import { $, h, fmt, toast } from "./dom.js";
 import { get, isOperator, post, qs } from "./api.js";
-import { policyLabel } from "./policies.js";
+import { policyText } from "./comparegroups.js";
 import { ENDED } from "./status.js";
 
 const PAGE = 20;
@@ -76,12 +76,12 @@ export class MissionsPage {
       const total = metrics.minerals_total;
       return h(
         "tr",
-        { dataset: { mission: m.id, status: m.status, policy: m.policy } },
+        { dataset: { mission: m.id, status: m.status, policy: m.policy, mixed: m.mixed_policy ? "true" : "false" } },
         h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
         h("td", {}, h("span", { class: "badge", dataset: { status: m.status } }, m.status)),
-        h("td", {}, policyLabel(m.policy)),
+        h("td", { title: m.mixed_policy ? "The policy was switched during the run: initial → … → current" : "" }, policyText(m), m.mixed_policy ? h("span", { class: "badge mixed" }, "mixed") : null),
         h("td", { class: "num" }, m.seed),
-        h("td", {}, m.scenario_name),
+        h("td", { title: `scenario hash ${m.scenario_hash}` }, m.scenario_name),
         h("td", { class: "num", dataset: { cell: "makespan" } }, makespanText(metrics)),
         h("td", { class: "num", dataset: { cell: "minerals" } }, delivered !== undefined ? `${delivered}/${total}` : "–"),
         h("td", {}, m.created_at ? new Date(m.created_at).toLocaleString() : "–"),

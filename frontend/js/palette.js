@@ -9,6 +9,9 @@ export const TYPE_COLOUR = {
 };
 export const KIND_COLOUR = { scout_excavator: "#e69f00", excavator_hauler: "#cc79a7", operator: "#56b4e9" };
 export const KIND_LABEL = { scout_excavator: "scout→exc", excavator_hauler: "exc→hauler", operator: "operator" };
+/** Shorter names where a chart has no room for the full ones. */
+export const KIND_ABBR = { scout_excavator: "S→E", excavator_hauler: "E→H", operator: "op." };
+export const TYPE_ABBR = { scout: "scout", excavator: "exc.", hauler: "haul." };
 export const SITE_COLOUR = "#f0e442";
 export const FAILED_COLOUR = "#d55e00";
 export const PLANT_COLOUR = "#e6edf3";

@@ -101,6 +101,8 @@ export class RobotTable {
     row.cells.task.title = r.task || "";
     setText(row.cells.load, r.load ?? "");
     setText(row.cells.dist, r.distance === undefined ? "" : fmt(r.distance, 0));
+    row.tr.dataset.distance = r.distance ?? ""; // exact, for tests (the cell is rounded)
+    row.tr.dataset.task = r.task ?? "";
   }
 
   _buttons(row) {

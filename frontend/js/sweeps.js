@@ -26,6 +26,35 @@ async function loadImage(img, url) {
   }
 }
 
+/** "#3 · reference ×1 · 1 · FCFS, 2 · Coalitions × 10 seeds (running)": the whole description. */
+function describe(s) {
+  const scale = s.scale > 1 ? ` ×${s.scale}` : "";
+  return `Sweep #${s.id}: ${s.scenario_name}${scale}, ${s.policies.map(policyLabel).join(", ")} × ${s.n_seeds} seeds, ${s.status}`;
+}
+
+/** A link that downloads `url` as `filename`; with a token it is fetched with it (reads may
+ * need it) and handed over as a blob. */
+function downloadLink(url, filename, text) {
+  const a = h("a", { href: url, download: filename, class: "btn tiny", dataset: { download: filename } }, text);
+  a.addEventListener("click", async (e) => {
+    if (!getToken()) return; // same origin, no token: the plain link downloads
+    e.preventDefault();
+    try {
+      const res = await fetch(url, { headers: { Authorization: `Bearer ${getToken()}` } });
+      if (!res.ok) throw new Error(res.statusText);
+      const blobUrl = URL.createObjectURL(await res.blob());
+      const tmp = h("a", { href: blobUrl, download: filename });
+      document.body.append(tmp);
+      tmp.click();
+      tmp.remove();
+      setTimeout(() => URL.revokeObjectURL(blobUrl), 10_000);
+    } catch (err) {
+      toast(`Could not download ${filename}: ${err.message}`, "error");
+    }
+  });
+  return a;
+}
+
 export class SweepPanel {
   /** onPick(detail | null): a sweep (with `runs` and `figures`) was picked, or the pick cleared. */
   constructor({ onPick }) {
@@ -97,18 +126,17 @@ export class SweepPanel {
   renderPick() {
     const box = $("#sweep-pick");
     if (!this.sweeps.length) return box.replaceChildren(h("p", { class: "hint" }, "No sweeps yet."));
-    const text = (s) => {
-      const state = s.status === "completed" ? "" : ` (${s.status})`;
-      return `#${s.id} · ${s.policies.map(policyLabel).join(", ")} × ${s.n_seeds} seeds${state}`;
-    };
+    // the menu stays short; the picked sweep's whole description goes below it, wrapped
+    const text = (s) => `#${s.id} · ${s.scenario_name} · ${s.policies.length} × ${s.n_seeds}${s.status === "completed" ? "" : ` (${s.status})`}`;
     const sel = h(
       "select",
       { id: "sweep-select", "aria-label": "Sweep" },
       h("option", { value: "" }, "—"),
-      this.sweeps.map((s) => h("option", { value: s.id, selected: s.id === this.picked }, text(s))),
+      this.sweeps.map((s) => h("option", { value: s.id, selected: s.id === this.picked, title: describe(s) }, text(s))),
     );
     sel.addEventListener("change", () => this.pick(sel.value ? Number(sel.value) : null));
-    return box.replaceChildren(h("label", {}, "Compare a sweep instead", sel));
+    const picked = this.sweeps.find((s) => s.id === this.picked);
+    return box.replaceChildren(h("label", {}, "Compare a sweep instead", sel), h("p", { class: "hint sweep-desc", id: "sweep-desc" }, picked ? describe(picked) : ""));
   }
 
   /** Show sweep `id` in the charts, its figures below them (null: back to the missions). */
@@ -116,6 +144,9 @@ export class SweepPanel {
     this.picked = id;
     const sel = $("#sweep-select");
     if (sel) sel.value = id ?? "";
+    const desc = $("#sweep-desc");
+    const known = this.sweeps.find((s) => s.id === id);
+    if (desc) desc.textContent = known ? describe(known) : "";
     if (id === null) {
       this.renderFigures(null);
       return this.onPick(null);
@@ -137,13 +168,21 @@ export class SweepPanel {
     this.picked = null;
     const sel = $("#sweep-select");
     if (sel) sel.value = "";
+    if ($("#sweep-desc")) $("#sweep-desc").textContent = "";
     this.renderFigures(null);
   }
 
   renderFigures(detail) {
     const box = $("#sweep-figures");
     const figures = detail ? detail.figures : [];
-    box.hidden = !figures.length;
+    const files = detail ? detail.files : [];
+    box.hidden = !figures.length && !files.length;
+    const name = (file) => `sweep-${detail.id}-${file}`;
+    $("#sweep-downloads").replaceChildren(
+      ...(files.length ? [h("span", { class: "hint" }, "Download:")] : []),
+      ...files.map((f) => downloadLink(f.url, name(f.name), f.name)),
+      ...figures.flatMap((f) => [downloadLink(f.svg, name(`${f.name}.svg`), `${f.name}.svg`), downloadLink(f.png, name(`${f.name}.png`), `${f.name}.png`)]),
+    );
     box.dataset.sweep = detail?.id ?? "";
     $("#sweep-figures-title").textContent = detail ? `Sweep ${detail.id}: ${detail.scenario_name}, ${detail.n_seeds} seeds` : "Sweep figures";
     $("#sweep-figures .sweep-fig-grid").replaceChildren(
@@ -153,7 +192,7 @@ export class SweepPanel {
         return h(
           "figure",
           { dataset: { figure: f.name } },
-          h("figcaption", {}, f.title, " ", h("a", { href: f.svg, target: "_blank", rel: "noopener", class: "hint" }, "SVG")),
+          h("figcaption", {}, f.title),
           img,
           f.verdict.map((v) => h("p", { class: "hint" }, v)),
         );

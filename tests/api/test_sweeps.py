@@ -122,7 +122,7 @@ def test_sweep_requests_are_checked(server: LiveServer, api: httpx.Client) -> No
     assert api.get("/api/sweeps/99/figures/makespan.png").status_code == 404
 
 
-def test_figure_names_cannot_leave_the_figures_folder(
+def test_figure_and_file_names_cannot_leave_the_sweep_folder(
     server: LiveServer, api: httpx.Client
 ) -> None:
     sid = _start(api, policies=[1], seeds="0")["id"]
@@ -141,6 +141,24 @@ def test_figure_names_cannot_leave_the_figures_folder(
         assert res.status_code in (404, 422), (name, res.status_code)
         assert b"scenario_hash" not in res.content and b"SQLite" not in res.content
     assert api.get(f"/api/sweeps/{sid}/figures/nothing.png").status_code == 404
+
+    # the result files download (runs.csv, summary.json, report.md); nothing else is reachable
+    done = api.get(f"/api/sweeps/{sid}").json()
+    out = Path(server.settings.data_dir) / "sweeps" / str(sid)
+    names = {f["name"] for f in done["files"]}
+    assert {"runs.csv", "summary.json", "report.md"} <= names
+    for f in done["files"]:
+        res = api.get(f["url"])
+        assert res.status_code == 200, f
+        assert res.content == (out / f["name"]).read_bytes()
+        assert res.headers["content-type"].startswith(f["media_type"])
+        disposition = res.headers["content-disposition"]
+        assert disposition.startswith("attachment") and f"sweep-{sid}-{f['name']}" in disposition
+    for name in ["sweep.json", "journal.jsonl", "..%2Fregolith.db", "runs.csv%00", "figures"]:
+        res = api.get(f"/api/sweeps/{sid}/files/{name}")
+        assert res.status_code in (404, 422), (name, res.status_code)
+        assert b"SQLite" not in res.content
+    assert api.get("/api/sweeps/999/files/runs.csv").status_code == 404
 
 
 def test_cancel_then_resume_finishes_without_repeating_a_run(
