@@ -1,0 +1,196 @@
+"""Mission playback: a mission exactly as it was at any simulated time, rebuilt by replay.
+
+A mission is a pure function of its scenario, seed, planner and replayable operator actions,
+so the state at time `t` is what a fresh engine shows after replaying the actions up to `t`
+and advancing to `t`. Replaying from zero on every scrub would cost a whole run each time,
+and an engine cannot be copied (its robots are simpy processes, i.e. generators, which
+neither `copy` nor `pickle` can take), so the checkpoints are engines themselves: *cursors*
+parked at the time they last showed. A request takes the parked cursor of that mission
+closest before `t` and advances it (playing forward costs only the simulated span between
+two requests); only a step back past every cursor starts a new one from zero. The pool is
+bounded (`REGOLITH_PLAYBACK_CURSORS` engines in all, at most `REGOLITH_PLAYBACK_PER_MISSION`
+per mission); the least recently used cursor is closed first.
+
+Replay work runs on a worker thread in short slices under the engine gate, like a resume,
+so live missions keep stepping and the event loop keeps serving meanwhile. A cursor is
+checked out while it works: two viewers scrubbing one mission never share an engine.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+from dataclasses import dataclass, field
+from time import perf_counter
+from typing import Any, Literal
+
+from app.db.models import Mission as MissionRow
+from app.live.gate import Gate
+from app.live.runner import auction_dict, stream_state
+from app.services.errors import Conflict, Invalid
+from app.services.missions import LiveState, MissionService
+from app.settings import Settings
+from engine import Mission, parse_scenario
+
+#: Auctions sent with a state: the latest opened by `t` (as the live feed loads), plus any
+#: older one still open at `t`.
+FEED_AUCTIONS = 200
+_SLICE_S = 0.005
+_EPS = 1e-9
+
+
+@dataclass(eq=False)
+class Cursor:
+    """A replay engine parked at `engine.now`, with how far it has read its own log."""
+
+    mission_id: int
+    engine: Mission
+    applied: int = 0  # replayable actions applied so far
+    scanned: int = 0  # events looked through for deliveries
+    deliveries: list[dict[str, Any]] = field(default_factory=list)
+    used: int = 0
+
+
+@dataclass(frozen=True)
+class StateAt:
+    """A mission at simulated time `t` (the answer of `GET /api/missions/{id}/state`)."""
+
+    t: float
+    end: float
+    row: MissionRow
+    live: LiveState | None
+    state: dict[str, Any]
+    auctions: list[dict[str, Any]]
+    deliveries: list[dict[str, Any]]
+    events: int
+
+
+class Playback:
+    """The pool of replay cursors, shared by every viewer of every mission."""
+
+    def __init__(self, settings: Settings, missions: MissionService) -> None:
+        self.missions = missions
+        self.gate: Gate = missions.gate
+        self.capacity = settings.playback_cursors
+        self.per_mission = settings.playback_per_mission
+        self._parked: list[Cursor] = []
+        self._clock = itertools.count(1)
+        self.built = 0  # cursors started from zero (for tests and the bench)
+
+    async def state_at(self, mission_id: int, t: float) -> StateAt:
+        """The state of mission `mission_id` at simulated time `t` (404 unknown, 422 `t`
+        past the mission's time, 409 if its replay fails)."""
+        row, live = await self.missions.detail(mission_id)
+        end = live.sim_time if live is not None else row.sim_time
+        if t > end + _EPS:
+            raise Invalid(
+                f"t: {t:g} is past the end of mission {mission_id} (simulated time {end:g})",
+                ("query", "t"),
+            )
+        actions = self._actions(mission_id, row)
+        cursor = self._checkout(mission_id, t)
+        try:
+            if cursor is None:
+                cursor = await asyncio.to_thread(self._build, row)
+            out = await asyncio.to_thread(self._show, cursor, actions, t)
+        except Exception as exc:
+            if cursor is not None:
+                await asyncio.to_thread(self._close, cursor)
+            if isinstance(exc, Conflict):
+                raise
+            raise Conflict(f"mission {mission_id} cannot be replayed to t={t:g}: {exc}") from exc
+        self._checkin(cursor)
+        state, auctions, deliveries, events = out
+        return StateAt(t, end, row, live, state, auctions, deliveries, events)
+
+    def _actions(self, mission_id: int, row: MissionRow) -> list[dict[str, Any]]:
+        """The replayable actions in order: the live engine's own list while it runs (an
+        action is there the moment it applies, before it is committed), else the stored."""
+        lm = self.missions.runner.live.get(mission_id)
+        if lm is not None and not lm.finishing:
+            with self.gate:
+                return [dict(a) for a in lm.mission.actions]
+        stored = sorted((a for a in row.actions if a.replay), key=lambda a: a.seq)
+        return [{"t": a.t, "kind": a.kind, "args": a.args} for a in stored]
+
+    # -- the pool ----------------------------------------------------------------------
+
+    def _checkout(self, mission_id: int, t: float) -> Cursor | None:
+        """The parked cursor of this mission latest at or before `t`, taken out of the pool."""
+        mine = [c for c in self._parked if c.mission_id == mission_id]
+        before = [c for c in mine if c.engine.now <= t + _EPS]
+        best = max(before, key=lambda c: c.engine.now, default=None)
+        if best is not None:
+            self._parked.remove(best)
+        return best
+
+    def _checkin(self, cursor: Cursor) -> None:
+        cursor.used = next(self._clock)
+        self._parked.append(cursor)
+        mine = [c for c in self._parked if c.mission_id == cursor.mission_id]
+        evict = sorted(mine, key=lambda c: c.used)[: max(0, len(mine) - self.per_mission)]
+        rest = [c for c in self._parked if c not in evict]
+        evict += sorted(rest, key=lambda c: c.used)[: max(0, len(rest) - self.capacity)]
+        for c in evict:
+            self._parked.remove(c)
+            self._close(c)
+
+    def parked(self, mission_id: int | None = None) -> list[float]:
+        """The times the parked cursors stand at (of one mission, or all)."""
+        return sorted(
+            c.engine.now for c in self._parked if mission_id is None or c.mission_id == mission_id
+        )
+
+    def close(self) -> None:
+        """Close every parked engine (the server is stopping)."""
+        while self._parked:
+            self._close(self._parked.pop())
+
+    # -- engine work (worker thread, short holds of the gate) ---------------------------
+
+    def _close(self, cursor: Cursor) -> None:
+        with self.gate:
+            cursor.engine.close()
+
+    def _build(self, row: MissionRow) -> Cursor:
+        planner: Literal["ompl", "straight"] = "straight" if row.planner == "straight" else "ompl"
+        with self.gate:
+            m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)
+        self.built += 1
+        return Cursor(row.id, m)
+
+    def _advance(self, m: Mission, t: float) -> None:
+        chunk = 1.0
+        while m.now < t and not m.done:
+            t0 = perf_counter()
+            with self.gate:
+                m.advance(min(t, m.now + chunk))
+            took = perf_counter() - t0
+            chunk = chunk * 2 if took < _SLICE_S / 4 else max(chunk / 2, 1e-3)
+        with self.gate:
+            m.advance(t)  # events at exactly `t` too, even when the engine already stands there
+
+    def _show(
+        self, cursor: Cursor, actions: list[dict[str, Any]], t: float
+    ) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]], int]:
+        """Replay `cursor` to `t` (every action and event at `t` included) and read it."""
+        m = cursor.engine
+        while cursor.applied < len(actions) and float(actions[cursor.applied]["t"]) <= t:
+            action = actions[cursor.applied]
+            self._advance(m, float(action["t"]))
+            with self.gate:
+                m.apply(action)
+            cursor.applied += 1
+        self._advance(m, t)
+        with self.gate:
+            state = stream_state(m.snapshot())
+            records = m.auctions
+            older = [a for a in records[:-FEED_AUCTIONS] if a.status == "open"]
+            auctions = [auction_dict(a.to_dict()) for a in older + records[-FEED_AUCTIONS:]]
+            log = m.events
+            for ev in log[cursor.scanned :]:
+                if ev.kind == "delivered":
+                    cursor.deliveries.append(ev.to_dict())
+            cursor.scanned = len(log)
+            assert state is not None
+            return state, auctions, list(cursor.deliveries), len(log)
