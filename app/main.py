@@ -75,7 +75,7 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
             stack.push_async_callback(sweeps.aclose)
             missions = MissionService(settings, store, runner)
             playback = Playback(settings, missions)
-            stack.callback(playback.close)
+            stack.push_async_callback(playback.aclose)
             app.state.services = Services(
                 settings=settings,
                 store=store,

@@ -9,7 +9,11 @@ parked at the time they last showed. A request takes the parked cursor of that m
 closest before `t` and advances it (playing forward costs only the simulated span between
 two requests); only a step back past every cursor starts a new one from zero. The pool is
 bounded (`REGOLITH_PLAYBACK_CURSORS` engines in all, at most `REGOLITH_PLAYBACK_PER_MISSION`
-per mission); the least recently used cursor is closed first.
+per mission; within a mission the survivors stay spread over the timeline, across missions
+the least recently used go first: `app/services/cursors.py`). After a request the pool also
+builds *checkpoints* for that mission in the background, at the middle of the widest stretch
+of its timeline no cursor covers, until every stretch is narrower than the timeline divided by
+the per-mission limit: a scrub anywhere then replays at most that much.
 
 Replay work runs on a worker thread in short slices under the engine gate, like a resume,
 so live missions keep stepping and the event loop keeps serving meanwhile. A cursor is
@@ -19,6 +23,7 @@ checked out while it works: two viewers scrubbing one mission never share an eng
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import itertools
 from dataclasses import dataclass, field
 from time import perf_counter
@@ -27,6 +32,7 @@ from typing import Any, Literal
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
 from app.live.runner import auction_dict, stream_state
+from app.services.cursors import evictions, gap_to_fill, pick
 from app.services.errors import Conflict, Invalid
 from app.services.missions import LiveState, MissionService
 from app.settings import Settings
@@ -50,6 +56,10 @@ class Cursor:
     deliveries: list[dict[str, Any]] = field(default_factory=list)
     used: int = 0
 
+    @property
+    def at(self) -> float:
+        return self.engine.now
+
 
 @dataclass(frozen=True)
 class StateAt:
@@ -65,6 +75,10 @@ class StateAt:
     events: int
 
 
+class Closing(Exception):
+    """The server is stopping: replay work in flight gives up."""
+
+
 class Playback:
     """The pool of replay cursors, shared by every viewer of every mission."""
 
@@ -75,6 +89,8 @@ class Playback:
         self.per_mission = settings.playback_per_mission
         self._parked: list[Cursor] = []
         self._clock = itertools.count(1)
+        self._fills: dict[int, asyncio.Task[None]] = {}
+        self._closing = False
         self.built = 0  # cursors started from zero (for tests and the bench)
 
     async def state_at(self, mission_id: int, t: float) -> StateAt:
@@ -88,18 +104,12 @@ class Playback:
                 ("query", "t"),
             )
         actions = self._actions(mission_id, row)
-        cursor = self._checkout(mission_id, t)
+        cursor = await self._replay(row, actions, t)
         try:
-            if cursor is None:
-                cursor = await asyncio.to_thread(self._build, row)
-            out = await asyncio.to_thread(self._show, cursor, actions, t)
-        except Exception as exc:
-            if cursor is not None:
-                await asyncio.to_thread(self._close, cursor)
-            if isinstance(exc, Conflict):
-                raise
-            raise Conflict(f"mission {mission_id} cannot be replayed to t={t:g}: {exc}") from exc
-        self._checkin(cursor)
+            out = await asyncio.to_thread(self._read, cursor)
+        finally:
+            self._checkin(cursor)
+        self._fill_later(row, actions, end)
         state, auctions, deliveries, events = out
         return StateAt(t, end, row, live, state, auctions, deliveries, events)
 
@@ -113,36 +123,60 @@ class Playback:
         stored = sorted((a for a in row.actions if a.replay), key=lambda a: a.seq)
         return [{"t": a.t, "kind": a.kind, "args": a.args} for a in stored]
 
-    # -- the pool ----------------------------------------------------------------------
+    async def _replay(self, row: MissionRow, actions: list[dict[str, Any]], t: float) -> Cursor:
+        """A cursor of `row` standing at `t`: the parked one latest before `t`, moved on, or
+        a new one (checked out: the caller checks it back in)."""
+        if self._closing:
+            raise Conflict("the server is stopping")
+        cursor = pick(self._parked, row.id, t)
+        if cursor is not None:
+            self._parked.remove(cursor)
+        try:
+            if cursor is None:
+                cursor = await asyncio.to_thread(self._build, row)
+            await asyncio.to_thread(self._advance_with, cursor, actions, t)
+        except Exception as exc:
+            if cursor is not None:
+                await asyncio.to_thread(self._close, cursor)
+            if isinstance(exc, Closing):
+                raise Conflict("the server is stopping") from exc
+            raise Conflict(f"mission {row.id} cannot be replayed to t={t:g}: {exc}") from exc
+        return cursor
 
-    def _checkout(self, mission_id: int, t: float) -> Cursor | None:
-        """The parked cursor of this mission latest at or before `t`, taken out of the pool."""
-        mine = [c for c in self._parked if c.mission_id == mission_id]
-        before = [c for c in mine if c.engine.now <= t + _EPS]
-        best = max(before, key=lambda c: c.engine.now, default=None)
-        if best is not None:
-            self._parked.remove(best)
-        return best
+    # -- the pool ----------------------------------------------------------------------
 
     def _checkin(self, cursor: Cursor) -> None:
         cursor.used = next(self._clock)
         self._parked.append(cursor)
-        mine = [c for c in self._parked if c.mission_id == cursor.mission_id]
-        evict = sorted(mine, key=lambda c: c.used)[: max(0, len(mine) - self.per_mission)]
-        rest = [c for c in self._parked if c not in evict]
-        evict += sorted(rest, key=lambda c: c.used)[: max(0, len(rest) - self.capacity)]
-        for c in evict:
+        for c in evictions(self._parked, self.per_mission, self.capacity):
             self._parked.remove(c)
             self._close(c)
 
     def parked(self, mission_id: int | None = None) -> list[float]:
         """The times the parked cursors stand at (of one mission, or all)."""
-        return sorted(
-            c.engine.now for c in self._parked if mission_id is None or c.mission_id == mission_id
-        )
+        return sorted(c.at for c in self._parked if mission_id in (None, c.mission_id))
 
-    def close(self) -> None:
-        """Close every parked engine (the server is stopping)."""
+    def _fill_later(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
+        """Build this mission's missing checkpoints in the background (one task a mission)."""
+        if row.id not in self._fills and not self._closing:
+            task = asyncio.create_task(self._fill(row, actions, end))
+            self._fills[row.id] = task
+            task.add_done_callback(lambda _: self._fills.pop(row.id, None))
+
+    async def _fill(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
+        while (at := gap_to_fill(self.parked(row.id), end, self.per_mission)) is not None:
+            try:
+                cursor = await self._replay(row, actions, at)
+            except Conflict:
+                return
+            self._checkin(cursor)
+
+    async def aclose(self) -> None:
+        """Stop building checkpoints and close every parked engine (the server is stopping)."""
+        self._closing = True
+        for task in list(self._fills.values()):
+            with contextlib.suppress(Exception):
+                await task
         while self._parked:
             self._close(self._parked.pop())
 
@@ -162,6 +196,8 @@ class Playback:
     def _advance(self, m: Mission, t: float) -> None:
         chunk = 1.0
         while m.now < t and not m.done:
+            if self._closing:
+                raise Closing
             t0 = perf_counter()
             with self.gate:
                 m.advance(min(t, m.now + chunk))
@@ -170,10 +206,8 @@ class Playback:
         with self.gate:
             m.advance(t)  # events at exactly `t` too, even when the engine already stands there
 
-    def _show(
-        self, cursor: Cursor, actions: list[dict[str, Any]], t: float
-    ) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]], int]:
-        """Replay `cursor` to `t` (every action and event at `t` included) and read it."""
+    def _advance_with(self, cursor: Cursor, actions: list[dict[str, Any]], t: float) -> None:
+        """Replay `cursor` to `t`, every action and event at `t` included."""
         m = cursor.engine
         while cursor.applied < len(actions) and float(actions[cursor.applied]["t"]) <= t:
             action = actions[cursor.applied]
@@ -182,6 +216,12 @@ class Playback:
                 m.apply(action)
             cursor.applied += 1
         self._advance(m, t)
+
+    def _read(
+        self, cursor: Cursor
+    ) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]], int]:
+        """The cursor's snapshot, its latest auctions, its deliveries and its event count."""
+        m = cursor.engine
         with self.gate:
             state = stream_state(m.snapshot())
             records = m.auctions

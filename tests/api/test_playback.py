@@ -11,12 +11,14 @@ import json
 import random
 from bisect import bisect_right
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import httpx
 
 from app.live.runner import stream_state
+from app.services.cursors import evictions, gap_to_fill, pick
 from engine import Mission, reference_scenario
 from tests.api.conftest import LiveServer, make_settings, run_to_end, wait_for
 
@@ -158,3 +160,26 @@ def test_scrub_live_then_interrupted(tmp_path: Path) -> None:
             assert api.get(f"{base}/state", params={"t": paused_at + 1}).status_code == 422
     finally:
         server.stop()
+
+
+@dataclass
+class _Slot:
+    mission_id: int
+    at: float
+    used: int
+
+
+def test_pool_rules() -> None:
+    a, b, c = _Slot(1, 10.0, 1), _Slot(1, 50.0, 2), _Slot(2, 5.0, 3)
+    assert pick([a, b, c], 1, 49.0) is a and pick([a, b, c], 1, 50.0) is b
+    assert pick([a, b, c], 1, 9.0) is None and pick([a, b, c], 3, 100.0) is None
+    # per mission: the playhead (newest) stays, the most crowded of the others goes
+    crowd = [_Slot(1, 10.0, 5), _Slot(1, 12.0, 1), _Slot(1, 60.0, 2), _Slot(1, 11.0, 9)]
+    assert evictions(crowd, 3, 100) == [crowd[1]]
+    # across missions: the least recently used go
+    assert evictions([a, b, c], 10, 2) == [a]
+    assert gap_to_fill([], 100.0, 4) == 50.0
+    assert gap_to_fill([50.0], 100.0, 4) == 25.0
+    assert gap_to_fill([20.0, 45.0, 70.0], 100.0, 4) == 85.0
+    assert gap_to_fill([10.0, 20.0, 30.0, 40.0], 100.0, 4) is None  # no room
+    assert gap_to_fill([20.0, 40.0, 60.0, 80.0], 100.0, 5) is None  # every stretch <= 20

@@ -1,0 +1,101 @@
+"""Playback benchmark: how long a scrub takes (`GET /api/missions/{id}/state?t=`).
+
+    .venv/bin/python bench/playback_bench.py [--scale 1] [--seed 4] [--steps 100]
+
+Starts `regolith serve` in a subprocess on a free port with a fresh data folder, runs one
+mission to its end at "max" (with an abrupt failure and a policy switch on the way), then
+times, as the client sees them (full HTTP round trip, JSON decoded):
+
+1. play: `--steps` requests 10 simulated seconds apart from t = 0 (what the timeline's
+   play sends at 100x), each served by the cursor that served the one before;
+2. random: 30 scrubs to uniformly random times in a fixed random order (some forward from a
+   parked cursor, some back past every cursor, i.e. a replay from zero);
+3. back: 10 scrubs from the end towards the start, each behind every parked cursor: the
+   worst case, a replay from zero every time (its cost grows with t).
+
+Prints p50/p95/max per phase and the answer's size.
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import httpx
+from service_bench import AUTH, free_port, pct, start_server  # bench/, beside this script
+
+from engine import reference_scenario
+
+
+def wait_sim(api: httpx.Client, mid: int, done: object) -> dict[str, object]:
+    while True:
+        m: dict[str, object] = api.get(f"/api/missions/{mid}").json()
+        if done(m):  # type: ignore[operator]
+            return m
+        time.sleep(0.05)
+
+
+def timed(api: httpx.Client, mid: int, times: list[float]) -> tuple[list[float], list[int]]:
+    took, sizes = [], []
+    for t in times:
+        t0 = time.perf_counter()
+        r = api.get(f"/api/missions/{mid}/state", params={"t": t})
+        r.raise_for_status()
+        r.json()
+        took.append((time.perf_counter() - t0) * 1000)
+        sizes.append(len(r.content))
+    return took, sizes
+
+
+def report(name: str, took: list[float], sizes: list[int]) -> None:
+    print(
+        f"{name:7s} n={len(took):3d}  p50 {pct(took, 0.5):7.1f} ms  p95 {pct(took, 0.95):7.1f} ms"
+        f"  max {max(took):7.1f} ms  answer {sum(sizes) / len(sizes) / 1024:6.1f} KB"
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--scale", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=4)
+    ap.add_argument("--steps", type=int, default=100)
+    args = ap.parse_args()
+    port = free_port()
+    with tempfile.TemporaryDirectory() as tmp:
+        proc = start_server(Path(tmp), port)
+        try:
+            with httpx.Client(
+                base_url=f"http://127.0.0.1:{port}", headers=AUTH, timeout=600
+            ) as api:
+                scenario = reference_scenario().scaled(args.scale).model_dump(mode="json")
+                body = {"seed": args.seed, "speed": 300, "scenario": scenario}
+                mid = api.post("/api/missions", json=body).json()["id"]
+                wait_sim(api, mid, lambda m: m["sim_time"] > 150)
+                api.post(f"/api/missions/{mid}/robots/hauler-1/disable", json={"mode": "abrupt"})
+                api.put(f"/api/missions/{mid}/policy", json={"policy": "coalition"})
+                api.put(f"/api/missions/{mid}/speed", json={"speed": "max"})
+                end = float(
+                    wait_sim(api, mid, lambda m: m["status"] not in ("running", "paused"))[
+                        "sim_time"
+                    ]
+                )  # type: ignore[arg-type]
+                print(f"scale {args.scale}, seed {args.seed}: mission ends at t = {end:.0f} s")
+                play = [min(end, 10.0 * i) for i in range(args.steps)]
+                report("play", *timed(api, mid, play))
+                rng = random.Random(args.seed)
+                report("random", *timed(api, mid, [rng.uniform(0, end) for _ in range(30)]))
+                report("back", *timed(api, mid, [end * (10 - i) / 10 for i in range(10)]))
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+
+
+if __name__ == "__main__":
+    main()
