@@ -6,12 +6,14 @@ Starts `regolith serve` in a subprocess on a free port with a fresh data folder,
 mission to its end at "max" (with an abrupt failure and a policy switch on the way), then
 times, as the client sees them (full HTTP round trip, JSON decoded):
 
-1. play: `--steps` requests 10 simulated seconds apart from t = 0 (what the timeline's
+1. first: one scrub to 90 % of the mission, with no cursor yet: a replay from zero;
+   then `--settle` seconds for the background checkpoints (the server's memory before and
+   after is printed: the cost of the parked engines);
+2. random: 30 scrubs to uniformly random times in a fixed random order (each served by the
+   parked cursor latest before it, a checkpoint or the previous scrub's);
+3. play: `--steps` requests 10 simulated seconds apart from the start (what the timeline's
    play sends at 100x), each served by the cursor that served the one before;
-2. random: 30 scrubs to uniformly random times in a fixed random order (some forward from a
-   parked cursor, some back past every cursor, i.e. a replay from zero);
-3. back: 10 scrubs from the end towards the start, each behind every parked cursor: the
-   worst case, a replay from zero every time (its cost grows with t).
+4. back: 10 scrubs from the end towards the start, a tenth of the mission apart.
 
 Prints p50/p95/max per phase and the answer's size.
 """
@@ -26,6 +28,7 @@ import time
 from pathlib import Path
 
 import httpx
+import psutil
 from service_bench import AUTH, free_port, pct, start_server  # bench/, beside this script
 
 from engine import reference_scenario
@@ -63,6 +66,7 @@ def main() -> None:
     ap.add_argument("--scale", type=int, default=1)
     ap.add_argument("--seed", type=int, default=4)
     ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--settle", type=float, default=5.0)
     args = ap.parse_args()
     port = free_port()
     with tempfile.TemporaryDirectory() as tmp:
@@ -84,10 +88,16 @@ def main() -> None:
                     ]
                 )  # type: ignore[arg-type]
                 print(f"scale {args.scale}, seed {args.seed}: mission ends at t = {end:.0f} s")
-                play = [min(end, 10.0 * i) for i in range(args.steps)]
-                report("play", *timed(api, mid, play))
+                server = psutil.Process(proc.pid)
+                rss = server.memory_info().rss
+                report("first", *timed(api, mid, [0.9 * end]))
+                time.sleep(args.settle)
+                grown = (server.memory_info().rss - rss) / 2**20
+                print(f"server memory: {rss / 2**20:.0f} MB before, +{grown:.0f} MB with cursors")
                 rng = random.Random(args.seed)
                 report("random", *timed(api, mid, [rng.uniform(0, end) for _ in range(30)]))
+                play = [min(end, 10.0 * i) for i in range(args.steps)]
+                report("play", *timed(api, mid, play))
                 report("back", *timed(api, mid, [end * (10 - i) / 10 for i in range(10)]))
         finally:
             proc.terminate()

@@ -57,12 +57,16 @@ def evictions(slots: Sequence[T], per_mission: int, capacity: int) -> list[T]:
 
 
 def gap_to_fill(times: Sequence[float], end: float, per_mission: int) -> float | None:
-    """Where the next checkpoint of a mission goes: the middle of the widest stretch between
-    its cursors (and 0 and `end`), while it has room for one and that stretch is wider than
-    `end / per_mission`; else None."""
-    if len(times) >= per_mission or end <= 0:
+    """Where the next checkpoint of a mission goes, or None.
+
+    The middle of the widest stretch between its cursors (and 0 and `end`), while that
+    stretch is wider than `end / (per_mission - 1)` and the mission has room for a cursor:
+    `per_mission - 1` checkpoints cover the timeline and one slot is left for a viewer's
+    playhead, so a scrub that carries a checkpoint away leaves room to rebuild it.
+    """
+    if len(times) >= per_mission or end <= 0 or per_mission < 2:
         return None
     marks = [0.0, *sorted(times), end]
     # the widest stretch; of equal ones the earliest (the cheapest to replay to)
     width, lo = max(((b - a, a) for a, b in pairwise(marks)), key=lambda g: (g[0], -g[1]))
-    return lo + width / 2 if width > end / per_mission + EPS else None
+    return lo + width / 2 if width > end / (per_mission - 1) + EPS else None

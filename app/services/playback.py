@@ -12,8 +12,9 @@ bounded (`REGOLITH_PLAYBACK_CURSORS` engines in all, at most `REGOLITH_PLAYBACK_
 per mission; within a mission the survivors stay spread over the timeline, across missions
 the least recently used go first: `app/services/cursors.py`). After a request the pool also
 builds *checkpoints* for that mission in the background, at the middle of the widest stretch
-of its timeline no cursor covers, until every stretch is narrower than the timeline divided by
-the per-mission limit: a scrub anywhere then replays at most that much.
+of its timeline no cursor covers, until no stretch is wider than the timeline divided by the
+per-mission limit less one (a quarter, by default): a scrub anywhere then replays at most that
+much, and a scrub that carries a checkpoint away leaves room for it to be rebuilt.
 
 Replay work runs on a worker thread in short slices under the engine gate, like a resume,
 so live missions keep stepping and the event loop keeps serving meanwhile. A cursor is

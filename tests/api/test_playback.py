@@ -178,8 +178,8 @@ def test_pool_rules() -> None:
     assert evictions(crowd, 3, 100) == [crowd[1]]
     # across missions: the least recently used go
     assert evictions([a, b, c], 10, 2) == [a]
-    assert gap_to_fill([], 100.0, 4) == 50.0
-    assert gap_to_fill([50.0], 100.0, 4) == 25.0
-    assert gap_to_fill([20.0, 45.0, 70.0], 100.0, 4) == 85.0
-    assert gap_to_fill([10.0, 20.0, 30.0, 40.0], 100.0, 4) is None  # no room
-    assert gap_to_fill([20.0, 40.0, 60.0, 80.0], 100.0, 5) is None  # every stretch <= 20
+    assert gap_to_fill([], 100.0, 5) == 50.0
+    assert gap_to_fill([50.0], 100.0, 5) == 25.0  # of equal stretches the earlier
+    assert gap_to_fill([20.0, 45.0, 70.0], 100.0, 5) == 85.0
+    assert gap_to_fill([25.0, 50.0, 75.0], 100.0, 5) is None  # every stretch <= 100 / 4
+    assert gap_to_fill([10.0, 20.0, 30.0, 40.0, 50.0], 100.0, 5) is None  # no room
