@@ -314,7 +314,7 @@ export class LiveView {
 
   async _refreshDetail() {
     const id = this.id;
-    if (!id || document.hidden) return;
+    if (!id || document.hidden || this.playback.active) return; // looking back: not now
     try {
       const list = await get(`/missions/${encodeURIComponent(id)}/robots`); // [RobotRead]
       if (id !== this.id || this.finalShown === id) return; // may predate the ending

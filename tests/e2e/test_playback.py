@@ -83,3 +83,26 @@ def test_scrub_a_finished_mission(page: Page, console: ConsoleLog, api: httpx.Cl
     wait_for(page, "__regolith.frames >= 1 && __regolith.robots.length > 12")
     assert {r["name"]: (r["x"], r["y"]) for r in page.evaluate("__regolith.robots")} == final
     assert not console.errors, console.errors
+
+
+def test_look_back_at_a_live_mission(page: Page, api: httpx.Client, start_mission: Any) -> None:
+    """The stream and the robot poll go on while the view looks back; they do not move it."""
+    mid = start_mission(seed=6, speed=20)["id"]
+    page.goto(f"/#/live/{mid}")
+    wait_for(page, "__regolith.frames >= 5 && __regolith.t > 30")
+    page.locator("#tl-range").fill("12.5")
+    wait_for(page, "Number(document.querySelector('#timeline').dataset.shownT) === 12.5")
+    state = api.get(f"/missions/{mid}/state", params={"t": 12.5}).json()["state"]
+    pose = {r["name"]: (r["x"], r["y"], r["state"]) for r in state["robots"]}
+    frames = page.evaluate("__regolith.frames")
+    page.wait_for_timeout(2500)  # frames at 10 Hz and two robot polls would have moved it
+    assert page.evaluate("__regolith.frames") == frames and page.evaluate("__regolith.t") == 12.5
+    drawn = {r["name"]: (r["x"], r["y"], r["state"]) for r in page.evaluate("__regolith.robots")}
+    assert drawn == pose
+    end = float(page.locator("#timeline").get_attribute("data-end") or 0)
+    assert end > 30  # the timeline's end still follows the live mission
+    expect(page.locator("#inject-open")).to_be_hidden()
+    page.locator("#tl-latest").click()
+    expect(page.locator("#timeline")).to_have_attribute("data-mode", "latest")
+    wait_for(page, f"__regolith.t > {end}")
+    expect(page.locator("#live-status")).to_have_attribute("data-status", "running")
