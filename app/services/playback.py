@@ -43,6 +43,9 @@ from engine import Mission, parse_scenario
 #: older one still open at `t`.
 FEED_AUCTIONS = 200
 _SLICE_S = 0.005
+#: Replays at work at once (requests and checkpoints together; the rest wait their turn), so
+#: a burst of scrubs cannot build engines beyond the pool's bound.
+WORKERS = 2
 _EPS = 1e-9
 
 
@@ -92,6 +95,7 @@ class Playback:
         self._clock = itertools.count(1)
         self._fills: dict[int, asyncio.Task[None]] = {}
         self._closing = False
+        self._workers = asyncio.Semaphore(WORKERS)
         self.built = 0  # cursors started from zero (for tests and the bench)
 
     async def state_at(self, mission_id: int, t: float) -> StateAt:
@@ -105,11 +109,12 @@ class Playback:
                 ("query", "t"),
             )
         actions = self._actions(mission_id, row)
-        cursor = await self._replay(row, actions, t)
-        try:
-            out = await asyncio.to_thread(self._read, cursor)
-        finally:
-            self._checkin(cursor)
+        async with self._workers:
+            cursor = await self._replay(row, actions, t)
+            try:
+                out = await asyncio.to_thread(self._read, cursor)
+            finally:
+                self._checkin(cursor)
         self._fill_later(row, actions, end)
         state, auctions, deliveries, events = out
         return StateAt(t, end, row, live, state, auctions, deliveries, events)
@@ -166,11 +171,12 @@ class Playback:
 
     async def _fill(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
         while (at := gap_to_fill(self.parked(row.id), end, self.per_mission)) is not None:
-            try:
-                cursor = await self._replay(row, actions, at)
-            except Conflict:
-                return
-            self._checkin(cursor)
+            async with self._workers:
+                try:
+                    cursor = await self._replay(row, actions, at)
+                except Conflict:
+                    return
+                self._checkin(cursor)
 
     async def aclose(self) -> None:
         """Stop building checkpoints and close every parked engine (the server is stopping)."""
