@@ -28,7 +28,7 @@ import contextlib
 import itertools
 from dataclasses import dataclass, field
 from time import perf_counter
-from typing import Any, Literal
+from typing import Any
 
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
@@ -38,6 +38,7 @@ from app.services.errors import Conflict, Invalid
 from app.services.missions import LiveState, MissionService
 from app.settings import Settings
 from engine import Mission, parse_scenario
+from engine.mission import PLANNERS
 
 #: Auctions sent with a state: the latest opened by `t` (as the live feed loads), plus any
 #: older one still open at `t`.
@@ -194,9 +195,9 @@ class Playback:
             cursor.engine.close()
 
     def _build(self, row: MissionRow) -> Cursor:
-        planner: Literal["ompl", "straight"] = "straight" if row.planner == "straight" else "ompl"
+        planner = row.planner if row.planner in PLANNERS else "ompl"  # as a resume does
         with self.gate:
-            m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)
+            m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)  # type: ignore[arg-type]
         self.built += 1
         return Cursor(row.id, m)
 

@@ -130,7 +130,8 @@ def test_scrub_live_then_interrupted(tmp_path: Path) -> None:
     server = LiveServer(make_settings(tmp_path)).start()
     try:
         with server.client() as api:
-            mid = api.post("/api/missions", json={"seed": 8, "speed": 150}).json()["id"]
+            body = {"seed": 8, "speed": 150, "planner": "exact"}  # replayed with its own planner
+            mid = api.post("/api/missions", json=body).json()["id"]
             base = f"/api/missions/{mid}"
             wait_for(lambda: api.get(base).json()["sim_time"] > 100)
             api.put(f"{base}/policy", json={"policy": "nearest"}).raise_for_status()
