@@ -1,6 +1,8 @@
 """Playback benchmark: how long a scrub takes (`GET /api/missions/{id}/state?t=`).
 
-    .venv/bin/python bench/playback_bench.py [--scale 1] [--seed 4] [--steps 100]
+    .venv/bin/python bench/playback_bench.py [--scale 1] [--seed 4] [--steps 100] [--per-mission 5]
+
+`--per-mission 1` leaves out the checkpoints (one cursor per mission): the A/B comparison.
 
 Starts `regolith serve` in a subprocess on a free port with a fresh data folder, runs one
 mission to its end at "max" (with an abrupt failure and a policy switch on the way), then
@@ -21,6 +23,7 @@ Prints p50/p95/max per phase and the answer's size.
 from __future__ import annotations
 
 import argparse
+import os
 import random
 import subprocess
 import tempfile
@@ -67,8 +70,10 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=4)
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--settle", type=float, default=5.0)
+    ap.add_argument("--per-mission", type=int, default=5, help="REGOLITH_PLAYBACK_PER_MISSION")
     args = ap.parse_args()
     port = free_port()
+    os.environ["REGOLITH_PLAYBACK_PER_MISSION"] = str(args.per_mission)  # for start_server
     with tempfile.TemporaryDirectory() as tmp:
         proc = start_server(Path(tmp), port)
         try:
@@ -87,7 +92,10 @@ def main() -> None:
                         "sim_time"
                     ]
                 )  # type: ignore[arg-type]
-                print(f"scale {args.scale}, seed {args.seed}: mission ends at t = {end:.0f} s")
+                print(
+                    f"scale {args.scale}, seed {args.seed}, {args.per_mission} cursor(s) per "
+                    f"mission: the mission ends at t = {end:.0f} s"
+                )
                 server = psutil.Process(proc.pid)
                 rss = server.memory_info().rss
                 report("first", *timed(api, mid, [0.9 * end]))

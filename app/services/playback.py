@@ -26,6 +26,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import itertools
+import time
 from dataclasses import dataclass, field
 from time import perf_counter
 from typing import Any
@@ -44,9 +45,10 @@ from engine.mission import PLANNERS
 #: older one still open at `t`.
 FEED_AUCTIONS = 200
 _SLICE_S = 0.005
-#: Replays at work at once (requests and checkpoints together; the rest wait their turn), so
-#: a burst of scrubs cannot build engines beyond the pool's bound.
+#: Requests replaying at once (the rest wait their turn), so a burst of scrubs cannot build
+#: engines beyond the pool's bound; checkpoints are built one at a time, apart from them.
 WORKERS = 2
+_YIELD_S = 0.002
 _EPS = 1e-9
 
 
@@ -97,6 +99,8 @@ class Playback:
         self._fills: dict[int, asyncio.Task[None]] = {}
         self._closing = False
         self._workers = asyncio.Semaphore(WORKERS)
+        self._filler = asyncio.Semaphore(1)
+        self._asking = 0  # requests waiting or replaying: checkpoint building pauses for them
         self.built = 0  # cursors started from zero (for tests and the bench)
 
     async def state_at(self, mission_id: int, t: float) -> StateAt:
@@ -110,12 +114,16 @@ class Playback:
                 ("query", "t"),
             )
         actions = self._actions(mission_id, row)
-        async with self._workers:
-            cursor = await self._replay(row, actions, t)
-            try:
-                out = await asyncio.to_thread(self._read, cursor)
-            finally:
-                self._checkin(cursor)
+        self._asking += 1
+        try:
+            async with self._workers:
+                cursor = await self._replay(row, actions, t)
+                try:
+                    out = await asyncio.to_thread(self._read, cursor)
+                finally:
+                    self._checkin(cursor)
+        finally:
+            self._asking -= 1
         self._fill_later(row, actions, end)
         state, auctions, deliveries, events = out
         return StateAt(t, end, row, live, state, auctions, deliveries, events)
@@ -130,7 +138,9 @@ class Playback:
         stored = sorted((a for a in row.actions if a.replay), key=lambda a: a.seq)
         return [{"t": a.t, "kind": a.kind, "args": a.args} for a in stored]
 
-    async def _replay(self, row: MissionRow, actions: list[dict[str, Any]], t: float) -> Cursor:
+    async def _replay(
+        self, row: MissionRow, actions: list[dict[str, Any]], t: float, background: bool = False
+    ) -> Cursor:
         """A cursor of `row` standing at `t`: the parked one latest before `t`, moved on, or
         a new one (checked out: the caller checks it back in)."""
         if self._closing:
@@ -141,7 +151,7 @@ class Playback:
         try:
             if cursor is None:
                 cursor = await asyncio.to_thread(self._build, row)
-            await asyncio.to_thread(self._advance_with, cursor, actions, t)
+            await asyncio.to_thread(self._advance_with, cursor, actions, t, background)
         except Exception as exc:
             if cursor is not None:
                 await asyncio.to_thread(self._close, cursor)
@@ -172,9 +182,9 @@ class Playback:
 
     async def _fill(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
         while (at := gap_to_fill(self.parked(row.id), end, self.per_mission)) is not None:
-            async with self._workers:
+            async with self._filler:
                 try:
-                    cursor = await self._replay(row, actions, at)
+                    cursor = await self._replay(row, actions, at, background=True)
                 except Conflict:
                     return
                 self._checkin(cursor)
@@ -201,9 +211,13 @@ class Playback:
         self.built += 1
         return Cursor(row.id, m)
 
-    def _advance(self, m: Mission, t: float) -> None:
+    def _advance(self, m: Mission, t: float, background: bool = False) -> None:
+        """Advance in slices of about 5 ms under the gate; a checkpoint being built (in the
+        background) waits between slices while any request is replaying."""
         chunk = 1.0
         while m.now < t and not m.done:
+            while background and self._asking and not self._closing:
+                time.sleep(_YIELD_S)
             if self._closing:
                 raise Closing
             t0 = perf_counter()
@@ -214,16 +228,18 @@ class Playback:
         with self.gate:
             m.advance(t)  # events at exactly `t` too, even when the engine already stands there
 
-    def _advance_with(self, cursor: Cursor, actions: list[dict[str, Any]], t: float) -> None:
+    def _advance_with(
+        self, cursor: Cursor, actions: list[dict[str, Any]], t: float, background: bool = False
+    ) -> None:
         """Replay `cursor` to `t`, every action and event at `t` included."""
         m = cursor.engine
         while cursor.applied < len(actions) and float(actions[cursor.applied]["t"]) <= t:
             action = actions[cursor.applied]
-            self._advance(m, float(action["t"]))
+            self._advance(m, float(action["t"]), background)
             with self.gate:
                 m.apply(action)
             cursor.applied += 1
-        self._advance(m, t)
+        self._advance(m, t, background)
 
     def _read(
         self, cursor: Cursor
