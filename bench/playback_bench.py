@@ -15,7 +15,9 @@ times, as the client sees them (full HTTP round trip, JSON decoded):
    parked cursor latest before it, a checkpoint or the previous scrub's);
 3. play: `--steps` requests 10 simulated seconds apart from the start (what the timeline's
    play sends at 100x), each served by the cursor that served the one before;
-4. back: 10 scrubs from the end towards the start, a tenth of the mission apart.
+4. back: 10 scrubs from the end towards the start, a tenth of the mission apart, while
+   another mission runs live at 50x: its pace during the phase (simulated s per wall s)
+   says whether replays hold up live missions (they should not: 50).
 
 Prints p50/p95/max per phase and the answer's size.
 """
@@ -106,7 +108,13 @@ def main() -> None:
                 report("random", *timed(api, mid, [rng.uniform(0, end) for _ in range(30)]))
                 play = [min(end, 10.0 * i) for i in range(args.steps)]
                 report("play", *timed(api, mid, play))
+                live = api.post("/api/missions", json={"seed": 1, "speed": 50}).json()["id"]
+                time.sleep(1.0)
+                t0, s0 = time.perf_counter(), wait_sim(api, live, lambda m: True)["sim_time"]
                 report("back", *timed(api, mid, [end * (10 - i) / 10 for i in range(10)]))
+                s1 = wait_sim(api, live, lambda m: True)["sim_time"]
+                pace = (float(s1) - float(s0)) / (time.perf_counter() - t0)  # type: ignore[arg-type]
+                print(f"a live mission at 50x meanwhile: {pace:.1f} simulated s per wall s")
         finally:
             proc.terminate()
             try:

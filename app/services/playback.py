@@ -16,8 +16,9 @@ of its timeline no cursor covers, until no stretch is wider than the timeline di
 per-mission limit less one (a quarter, by default): a scrub anywhere then replays at most that
 much, and a scrub that carries a checkpoint away leaves room for it to be rebuilt.
 
-Replay work runs on a worker thread in short slices under the engine gate, like a resume,
-so live missions keep stepping and the event loop keeps serving meanwhile. A cursor is
+Replay work runs on a worker thread in short slices, each taking the engine gate the way the
+stepping thread does (after anyone on the event loop), so live missions keep stepping and the
+API keeps answering meanwhile. A cursor is
 checked out while it works: two viewers scrubbing one mission never share an engine.
 """
 
@@ -212,8 +213,10 @@ class Playback:
         return Cursor(row.id, m)
 
     def _advance(self, m: Mission, t: float, background: bool = False) -> None:
-        """Advance in slices of about 5 ms under the gate; a checkpoint being built (in the
-        background) waits between slices while any request is replaying."""
+        """Advance in slices of about 5 ms, each taking the gate as the stepping thread does
+        (after any waiting request or command), so a long replay never holds up live missions
+        or the API; a checkpoint being built (in the background) also waits between slices
+        while any request is replaying."""
         chunk = 1.0
         while m.now < t and not m.done:
             while background and self._asking and not self._closing:
@@ -221,10 +224,11 @@ class Playback:
             if self._closing:
                 raise Closing
             t0 = perf_counter()
-            with self.gate:
+            with self.gate.stepping():  # the stepper's side: requests and commands go first
                 m.advance(min(t, m.now + chunk))
             took = perf_counter() - t0
             chunk = chunk * 2 if took < _SLICE_S / 4 else max(chunk / 2, 1e-3)
+            time.sleep(0)  # and the live missions' stepper gets its turn between slices
         with self.gate:
             m.advance(t)  # events at exactly `t` too, even when the engine already stands there
 
