@@ -163,6 +163,28 @@ def test_scrub_live_then_interrupted(tmp_path: Path) -> None:
         server.stop()
 
 
+def test_scrub_a_stalled_mission(server: LiveServer) -> None:
+    """Both scouts fail early: nothing more is found, and the mission ends `stalled`."""
+    scenario = {**reference_scenario().model_dump(mode="json"), "stall_timeout_s": 100.0}
+    with server.client() as api:
+        body = {"seed": 1, "speed": 20, "scenario": scenario, "planner": "straight"}
+        mid = api.post("/api/missions", json=body).json()["id"]
+        base = f"/api/missions/{mid}"
+        wait_for(lambda: api.get(base).json()["sim_time"] > 5)
+        for scout in ("scout-1", "scout-2"):
+            api.post(f"{base}/robots/{scout}/disable", json={"mode": "abrupt"}).raise_for_status()
+        record = run_to_end(api, mid)
+        assert record["status"] == "stalled"
+        failed_at = next(a["t"] for a in api.get(f"{base}/actions").json() if a["replay"])
+        before = _state(api, mid, failed_at / 2)["state"]
+        assert {r["state"] for r in before["robots"] if r["type"] == "scout"} != {"failed"}
+        last = _state(api, mid, record["sim_time"])
+        assert last["mission"]["status"] == "stalled"
+        assert last["state"]["robots"] == api.get(f"{base}/robots").json()
+        assert {r["state"] for r in last["state"]["robots"] if r["type"] == "scout"} == {"failed"}
+        assert api.get(f"{base}/state", params={"t": record["sim_time"] + 1}).status_code == 422
+
+
 @dataclass
 class _Slot:
     mission_id: int
