@@ -32,6 +32,7 @@ function eventText(ev) {
 /** Put a mission state at t (the `/state` answer) on every part of the live view. */
 function render(view, p, snap) {
   const s = p.state;
+  view._unfinal(); // a moment of the run, not the stored ending: frames may move it again
   view.map.setSites(s.sites); // every site, found or not, so later finds are hidden again
   view.map.setDropped(s.dropped);
   view.feed.reset();
@@ -64,7 +65,7 @@ export class Playback {
     return this.mode === "back";
   }
 
-  /** A new mission (or none): follow its stream, load its markers. */
+  /** A new mission (or none): follow its stream (its markers are read at its first snapshot). */
   open(id) {
     this.pause();
     clearInterval(this.markerTimer);
@@ -78,7 +79,12 @@ export class Playback {
     this.timeline.setTime(0);
     this.timeline.setMarkers([], () => {});
     this._mode("latest");
-    if (!id) return;
+    this.loaded = false; // markers are read once the stream says the mission exists
+  }
+
+  _loadMarkers() {
+    const id = this.id;
+    this.loaded = true;
     this._markers();
     this.markerTimer = setInterval(() => this.view.id === id && this.view.live && !document.hidden && this._markers(), MARKERS_MS);
   }
@@ -87,6 +93,7 @@ export class Playback {
   intercept(msg) {
     if (msg.type === "frame") this._liveTime(msg.t);
     else if (msg.type === "snapshot") {
+      if (!this.loaded) this._loadMarkers();
       this._liveTime(msg.mission.sim_time);
       const m = msg.mission; // the badge is the server's word, even while looking back
       if (this.active) this.view.status.set({ status: m.status, policy: m.policy, speed: m.speed, error: m.error });
