@@ -32,6 +32,7 @@ from app.ratelimit import RateLimiter
 from app.security import resolve_token
 from app.services.commands import RobotCommands
 from app.services.missions import MissionService
+from app.services.playback import Playback
 from app.services.store import Store
 from app.settings import Settings
 from app.startup import preflight
@@ -73,12 +74,15 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
                 log.warning("%d sweep(s) were left running; marked interrupted", stale)
             stack.push_async_callback(sweeps.aclose)
             missions = MissionService(settings, store, runner)
+            playback = Playback(settings, missions)
+            stack.push_async_callback(playback.aclose)
             app.state.services = Services(
                 settings=settings,
                 store=store,
                 runner=runner,
                 missions=missions,
                 commands=RobotCommands(missions),
+                playback=playback,
                 sweeps=sweeps,
                 token=token,
                 limiter=RateLimiter(settings.rate_limit_per_s, settings.rate_limit_burst),

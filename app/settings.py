@@ -40,6 +40,8 @@ class Settings(BaseSettings):
     max_viewers: Annotated[int, Field(ge=1, le=10_000)] = 256
     viewer_queue: Annotated[int, Field(ge=16, le=1_000_000)] = 2000
     ws_max_message: Annotated[int, Field(ge=64, le=1_048_576)] = 4096
+    playback_cursors: Annotated[int, Field(ge=1, le=1000)] = 10
+    playback_per_mission: Annotated[int, Field(ge=1, le=1000)] = 5
 
     sweep_workers: Annotated[int, Field(ge=1, le=256)] = 1
     max_running_sweeps: Annotated[int, Field(ge=1, le=64)] = 1

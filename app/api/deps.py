@@ -17,6 +17,7 @@ from app.ratelimit import RateLimiter
 from app.security import token_matches
 from app.services.commands import RobotCommands
 from app.services.missions import MissionService
+from app.services.playback import Playback
 from app.services.store import Store
 from app.settings import Settings
 from app.sweeps.service import SweepManager
@@ -31,6 +32,7 @@ class Services:
     runner: MissionRunner
     missions: MissionService
     commands: RobotCommands
+    playback: Playback
     sweeps: SweepManager
     token: str
     limiter: RateLimiter
@@ -59,8 +61,13 @@ async def get_commands(services: ServicesDep) -> RobotCommands:
     return services.commands
 
 
+async def get_playback(services: ServicesDep) -> Playback:
+    return services.playback
+
+
 MissionsDep = Annotated[MissionService, Depends(get_missions)]
 CommandsDep = Annotated[RobotCommands, Depends(get_commands)]
+PlaybackDep = Annotated[Playback, Depends(get_playback)]
 MissionId = Annotated[int, Path(ge=1, le=2**31 - 1, description="mission id")]
 RobotName = Annotated[
     str, Path(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.-]+$", description="robot")

@@ -227,6 +227,20 @@ class EventRead(BaseModel):
     data: dict[str, Any]
 
 
+class MissionStateAt(BaseModel):
+    """A mission as it was at simulated time `t`, rebuilt by replay (playback)."""
+
+    t: float
+    end: float = Field(description="the mission's simulated time now: the timeline's end")
+    mission: MissionRead = Field(description="the mission as it is now (not at `t`)")
+    state: dict[str, Any] = Field(description="`Mission.snapshot()` at `t`, as in `snapshot`")
+    auctions: list[dict[str, Any]] = Field(
+        description="`AuctionRead`s as they stood at `t`: the 200 latest opened, and older open"
+    )
+    deliveries: list[EventRead] = Field(description="every `delivered` event up to `t`")
+    events: int = Field(description="events up to `t` (every event with seq < this)")
+
+
 class EventPage(BaseModel):
     """Events after `after` in order; pass `next_after` back to get the next page."""
 

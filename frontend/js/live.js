@@ -13,6 +13,7 @@ import { Controls } from "./controls.js";
 import { ENDED, LIVE, MissionStatus } from "./status.js";
 import { COUNTER_KEYS, loadFinal, showCounters, validId } from "./final.js";
 import { exposeLive } from "./liveexpose.js";
+import { Playback } from "./playback.js";
 
 const DETAIL_MS = 1000; // robot list (paths, tasks, distance) refresh while the stream runs
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
@@ -36,7 +37,7 @@ export class LiveView {
     this.state = this._empty();
     // the parts below know this view only through these callbacks
     this.map = new MapView($("#map"), {
-      onPick: (x, y) => this.controls.pick(x, y),
+      onPick: (x, y) => this.playback.active || this.controls.pick(x, y), // none while looking back
       onCursor: (x, y) => this._hover(x, y),
     });
     this.feed = new AuctionFeed($("#auction-feed"), $("#feed-count"));
@@ -69,6 +70,7 @@ export class LiveView {
     $("#toggle-labels").addEventListener("change", (e) => this.map.setOption("labels", e.target.checked));
     $("#map-fit").addEventListener("click", () => this.map.fit());
     $("#feed-open-only").addEventListener("change", (e) => $("#auction-feed").classList.toggle("open-only", e.target.checked));
+    this.playback = new Playback(this); // the timeline: looks back at any moment (playback.js)
     exposeLive(this);
   }
 
@@ -117,6 +119,7 @@ export class LiveView {
     if (id === this.id && this.stream.open) return undefined;
     this.close();
     this.id = id;
+    this.playback.open(id);
     this._unfinal();
     this._empty_view(id ? "" : "none");
     if (!id) return;
@@ -176,6 +179,7 @@ export class LiveView {
 
   /** One message from the live stream. */
   handle(msg) {
+    if (this.playback.intercept(msg)) return undefined; // looking back: the stream waits
     switch (msg.type) {
       case "snapshot":
         return this._snapshot(msg);
@@ -310,7 +314,7 @@ export class LiveView {
 
   async _refreshDetail() {
     const id = this.id;
-    if (!id || document.hidden) return;
+    if (!id || document.hidden || this.playback.active) return; // looking back: not now
     try {
       const list = await get(`/missions/${encodeURIComponent(id)}/robots`); // [RobotRead]
       if (id !== this.id || this.finalShown === id) return; // may predate the ending
@@ -337,7 +341,7 @@ export class LiveView {
       /* the stream's view stays; a reconnect tries again */
     }
     if (this.finalLoading === id) this.finalLoading = null;
-    if (!fin || id !== this.id || LIVE.has(this.status.status)) return;
+    if (!fin || id !== this.id || LIVE.has(this.status.status) || this.playback.active) return;
     const s = this.state;
     this.finalShown = id;
     clearInterval(this.poll);

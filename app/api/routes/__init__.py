@@ -6,7 +6,17 @@ from typing import Any
 
 from fastapi import APIRouter
 
-from app.api.routes import auth, health, history, live, missions, policies, robots, scenarios
+from app.api.routes import (
+    auth,
+    health,
+    history,
+    live,
+    missions,
+    playback,
+    policies,
+    robots,
+    scenarios,
+)
 from app.api.schemas import ErrorRead
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
@@ -21,5 +31,5 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
     ]
 }
 api_router = APIRouter(prefix="/api", responses=_ERRORS)
-for _module in (health, auth, policies, scenarios, missions, robots, history, live):
+for _module in (health, auth, policies, scenarios, missions, robots, history, playback, live):
     api_router.include_router(_module.router)

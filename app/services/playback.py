@@ -1,0 +1,264 @@
+"""Mission playback: a mission exactly as it was at any simulated time, rebuilt by replay.
+
+A mission is a pure function of its scenario, seed, planner and replayable operator actions,
+so the state at time `t` is what a fresh engine shows after replaying the actions up to `t`
+and advancing to `t`. Replaying from zero on every scrub would cost a whole run each time,
+and an engine cannot be copied (its robots are simpy processes, i.e. generators, which
+neither `copy` nor `pickle` can take), so the checkpoints are engines themselves: *cursors*
+parked at the time they last showed. A request takes the parked cursor of that mission
+closest before `t` and advances it (playing forward costs only the simulated span between
+two requests); only a step back past every cursor starts a new one from zero. The pool is
+bounded (`REGOLITH_PLAYBACK_CURSORS` engines in all, at most `REGOLITH_PLAYBACK_PER_MISSION`
+per mission; within a mission the survivors stay spread over the timeline, across missions
+the least recently used go first: `app/services/cursors.py`). After a request the pool also
+builds *checkpoints* for that mission in the background, at the middle of the widest stretch
+of its timeline no cursor covers, until no stretch is wider than the timeline divided by the
+per-mission limit less one (a quarter, by default): a scrub anywhere then replays at most that
+much, and a scrub that carries a checkpoint away leaves room for it to be rebuilt.
+
+Replay work runs on a worker thread in short slices, each taking the engine gate the way the
+stepping thread does (after anyone on the event loop), so live missions keep stepping and the
+API keeps answering meanwhile. A cursor is
+checked out while it works: two viewers scrubbing one mission never share an engine.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import time
+from dataclasses import dataclass, field
+from time import perf_counter
+from typing import Any
+
+from app.db.models import Mission as MissionRow
+from app.live.gate import Gate
+from app.live.runner import auction_dict, stream_state
+from app.services.cursors import evictions, gap_to_fill, pick
+from app.services.errors import Conflict, Invalid
+from app.services.missions import LiveState, MissionService
+from app.settings import Settings
+from engine import Mission, parse_scenario
+from engine.mission import PLANNERS
+
+#: Auctions sent with a state: the latest opened by `t` (as the live feed loads), plus any
+#: older one still open at `t`.
+FEED_AUCTIONS = 200
+_SLICE_S = 0.005
+#: Requests replaying at once (the rest wait their turn), so a burst of scrubs cannot build
+#: engines beyond the pool's bound; checkpoints are built one at a time, apart from them.
+WORKERS = 2
+_YIELD_S = 0.002
+_EPS = 1e-9
+
+
+@dataclass(eq=False)
+class Cursor:
+    """A replay engine parked at `engine.now`, with how far it has read its own log."""
+
+    mission_id: int
+    engine: Mission
+    applied: int = 0  # replayable actions applied so far
+    scanned: int = 0  # events looked through for deliveries
+    deliveries: list[dict[str, Any]] = field(default_factory=list)
+    used: int = 0
+
+    @property
+    def at(self) -> float:
+        return self.engine.now
+
+
+@dataclass(frozen=True)
+class StateAt:
+    """A mission at simulated time `t` (the answer of `GET /api/missions/{id}/state`)."""
+
+    t: float
+    end: float
+    row: MissionRow
+    live: LiveState | None
+    state: dict[str, Any]
+    auctions: list[dict[str, Any]]
+    deliveries: list[dict[str, Any]]
+    events: int
+
+
+class Closing(Exception):
+    """The server is stopping: replay work in flight gives up."""
+
+
+class Playback:
+    """The pool of replay cursors, shared by every viewer of every mission."""
+
+    def __init__(self, settings: Settings, missions: MissionService) -> None:
+        self.missions = missions
+        self.gate: Gate = missions.gate
+        self.capacity = settings.playback_cursors
+        self.per_mission = settings.playback_per_mission
+        self._parked: list[Cursor] = []
+        self._clock = itertools.count(1)
+        self._fills: dict[int, asyncio.Task[None]] = {}
+        self._closing = False
+        self._workers = asyncio.Semaphore(WORKERS)
+        self._filler = asyncio.Semaphore(1)
+        self._asking = 0  # requests waiting or replaying: checkpoint building pauses for them
+        self.built = 0  # cursors started from zero (for tests and the bench)
+
+    async def state_at(self, mission_id: int, t: float) -> StateAt:
+        """The state of mission `mission_id` at simulated time `t` (404 unknown, 422 `t`
+        past the mission's time, 409 if its replay fails)."""
+        row, live = await self.missions.detail(mission_id)
+        end = live.sim_time if live is not None else row.sim_time
+        if t > end + _EPS:
+            raise Invalid(
+                f"t: {t:g} is past the end of mission {mission_id} (simulated time {end:g})",
+                ("query", "t"),
+            )
+        actions = self._actions(mission_id, row)
+        self._asking += 1
+        try:
+            async with self._workers:
+                cursor = await self._replay(row, actions, t)
+                try:
+                    out = await asyncio.to_thread(self._read, cursor)
+                finally:
+                    self._checkin(cursor)
+        finally:
+            self._asking -= 1
+        self._fill_later(row, actions, end)
+        state, auctions, deliveries, events = out
+        return StateAt(t, end, row, live, state, auctions, deliveries, events)
+
+    def _actions(self, mission_id: int, row: MissionRow) -> list[dict[str, Any]]:
+        """The replayable actions in order: the live engine's own list while it runs (an
+        action is there the moment it applies, before it is committed), else the stored."""
+        lm = self.missions.runner.live.get(mission_id)
+        if lm is not None and not lm.finishing:
+            with self.gate:
+                return [dict(a) for a in lm.mission.actions]
+        stored = sorted((a for a in row.actions if a.replay), key=lambda a: a.seq)
+        return [{"t": a.t, "kind": a.kind, "args": a.args} for a in stored]
+
+    async def _replay(
+        self, row: MissionRow, actions: list[dict[str, Any]], t: float, background: bool = False
+    ) -> Cursor:
+        """A cursor of `row` standing at `t`: the parked one latest before `t`, moved on, or
+        a new one (checked out: the caller checks it back in)."""
+        if self._closing:
+            raise Conflict("the server is stopping")
+        cursor = pick(self._parked, row.id, t)
+        if cursor is not None:
+            self._parked.remove(cursor)
+        try:
+            if cursor is None:
+                cursor = await asyncio.to_thread(self._build, row)
+            await asyncio.to_thread(self._advance_with, cursor, actions, t, background)
+        except Exception as exc:
+            if cursor is not None:
+                await asyncio.to_thread(self._close, cursor)
+            if isinstance(exc, Closing):
+                raise Conflict("the server is stopping") from exc
+            raise Conflict(f"mission {row.id} cannot be replayed to t={t:g}: {exc}") from exc
+        return cursor
+
+    # -- the pool ----------------------------------------------------------------------
+
+    def _checkin(self, cursor: Cursor) -> None:
+        cursor.used = next(self._clock)
+        self._parked.append(cursor)
+        for c in evictions(self._parked, self.per_mission, self.capacity):
+            self._parked.remove(c)
+            self._close(c)
+
+    def parked(self, mission_id: int | None = None) -> list[float]:
+        """The times the parked cursors stand at (of one mission, or all)."""
+        return sorted(c.at for c in self._parked if mission_id in (None, c.mission_id))
+
+    def _fill_later(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
+        """Build this mission's missing checkpoints in the background (one task a mission)."""
+        if row.id not in self._fills and not self._closing:
+            task = asyncio.create_task(self._fill(row, actions, end))
+            self._fills[row.id] = task
+            task.add_done_callback(lambda _: self._fills.pop(row.id, None))
+
+    async def _fill(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
+        while (at := gap_to_fill(self.parked(row.id), end, self.per_mission)) is not None:
+            async with self._filler:
+                try:
+                    cursor = await self._replay(row, actions, at, background=True)
+                except Conflict:
+                    return
+                self._checkin(cursor)
+
+    async def aclose(self) -> None:
+        """Stop building checkpoints and close every parked engine (the server is stopping)."""
+        self._closing = True
+        for task in list(self._fills.values()):
+            with contextlib.suppress(Exception):
+                await task
+        while self._parked:
+            self._close(self._parked.pop())
+
+    # -- engine work (worker thread, short holds of the gate) ---------------------------
+
+    def _close(self, cursor: Cursor) -> None:
+        with self.gate:
+            cursor.engine.close()
+
+    def _build(self, row: MissionRow) -> Cursor:
+        planner = row.planner if row.planner in PLANNERS else "ompl"  # as a resume does
+        with self.gate:
+            m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)  # type: ignore[arg-type]
+        self.built += 1
+        return Cursor(row.id, m)
+
+    def _advance(self, m: Mission, t: float, background: bool = False) -> None:
+        """Advance in slices of about 5 ms, each taking the gate as the stepping thread does
+        (after any waiting request or command), so a long replay never holds up live missions
+        or the API; a checkpoint being built (in the background) also waits between slices
+        while any request is replaying."""
+        chunk = 1.0
+        while m.now < t and not m.done:
+            while background and self._asking and not self._closing:
+                time.sleep(_YIELD_S)
+            if self._closing:
+                raise Closing
+            t0 = perf_counter()
+            with self.gate.stepping():  # the stepper's side: requests and commands go first
+                m.advance(min(t, m.now + chunk))
+            took = perf_counter() - t0
+            chunk = chunk * 2 if took < _SLICE_S / 4 else max(chunk / 2, 1e-3)
+            time.sleep(0)  # and the live missions' stepper gets its turn between slices
+        with self.gate:
+            m.advance(t)  # events at exactly `t` too, even when the engine already stands there
+
+    def _advance_with(
+        self, cursor: Cursor, actions: list[dict[str, Any]], t: float, background: bool = False
+    ) -> None:
+        """Replay `cursor` to `t`, every action and event at `t` included."""
+        m = cursor.engine
+        while cursor.applied < len(actions) and float(actions[cursor.applied]["t"]) <= t:
+            action = actions[cursor.applied]
+            self._advance(m, float(action["t"]), background)
+            with self.gate:
+                m.apply(action)
+            cursor.applied += 1
+        self._advance(m, t, background)
+
+    def _read(
+        self, cursor: Cursor
+    ) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]], int]:
+        """The cursor's snapshot, its latest auctions, its deliveries and its event count."""
+        m = cursor.engine
+        with self.gate:
+            state = stream_state(m.snapshot())
+            records = m.auctions
+            older = [a for a in records[:-FEED_AUCTIONS] if a.status == "open"]
+            auctions = [auction_dict(a.to_dict()) for a in older + records[-FEED_AUCTIONS:]]
+            log = m.events
+            for ev in log[cursor.scanned :]:
+                if ev.kind == "delivered":
+                    cursor.deliveries.append(ev.to_dict())
+            cursor.scanned = len(log)
+            assert state is not None
+            return state, auctions, list(cursor.deliveries), len(log)
