@@ -3,19 +3,30 @@ PY      ?= python3
 VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
+RUN_STAMP := $(VENV)/.installed-run
+# `make run HOST=0.0.0.0 PORT=9000` serves elsewhere (the defaults: this machine only, 8000).
 HOST    ?= 127.0.0.1
 PORT    ?= 8000
 
 .PHONY: run test lint format browser bench clean
 
-# `.[dev]` includes the experiments extra (matplotlib, Dask): the server starts sweeps.
-$(STAMP): pyproject.toml
+$(BIN)/pip:
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
-	touch $(STAMP)
 
-run: $(STAMP)
+# What serving needs: the package and the experiments extra (matplotlib, Dask): the server
+# starts sweeps.
+$(RUN_STAMP): pyproject.toml | $(BIN)/pip
+	$(BIN)/pip install --quiet -e '.[experiments]'
+	touch $(RUN_STAMP)
+
+# Everything for `make test`: `.[dev]` adds the test, lint and type-check tools (and
+# PostgreSQL's driver: the API suite runs on PostgreSQL too). It includes the run set.
+$(STAMP): pyproject.toml | $(BIN)/pip
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $(STAMP) $(RUN_STAMP)
+
+run: $(RUN_STAMP)
 	$(BIN)/regolith db upgrade
 	$(BIN)/regolith serve --host $(HOST) --port $(PORT)
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import socket
 from pathlib import Path
 from typing import Annotated, NoReturn
 
@@ -46,6 +49,25 @@ def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
     return settings
 
 
+def _listen(host: str, port: int) -> socket.socket:
+    """The server's socket, bound before anything is printed: a port in use is one line."""
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
+    except (socket.gaierror, UnicodeError) as exc:
+        _fail("serve", f"--host {host}: not an address of this machine ({exc})")
+    sock = socket.socket(family, kind, proto)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn does
+        if family == socket.AF_INET6 and host == "::":
+            sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 0)
+        sock.bind(address)
+    except OSError as exc:
+        sock.close()
+        why = "in use by another program" if exc.errno == errno.EADDRINUSE else exc.strerror
+        _fail("serve", f"--port {port}: cannot listen on {host}:{port} ({why})")
+    return sock
+
+
 def serve(
     host: Annotated[str, typer.Option("--host", help="Interface to listen on.")] = "127.0.0.1",
     port: Annotated[int, typer.Option("--port", help="TCP port.")] = 8000,
@@ -82,6 +104,7 @@ def serve(
         _fail("serve", f"--log-format {log_format}: choose auto|json|text")
     settings = _settings("serve", db, data_dir)
     assert isinstance(settings, Settings)
+    sock = _listen(host, port)
     try:
         token = resolve_token(settings)
     except OSError as exc:
@@ -102,7 +125,7 @@ def serve(
         logs.default_format() if log_format == "auto" else fmt,
         "DEBUG" if log_level == "trace" else log_level.upper(),
     )
-    uvicorn.run(
+    config = uvicorn.Config(
         create_app(settings, held=lock),
         host=host,
         port=port,
@@ -114,6 +137,11 @@ def serve(
         # X-Forwarded-For is Regolith's to judge (REGOLITH_TRUSTED_PROXIES), not uvicorn's
         proxy_headers=False,
     )
+    server = uvicorn.Server(config)
+    with sock, contextlib.suppress(KeyboardInterrupt):  # uvicorn re-raises SIGINT when done
+        server.run(sockets=[sock])
+    if not server.started:  # the application refused to start; its log says why
+        raise typer.Exit(1)
 
 
 def upgrade(

@@ -90,3 +90,18 @@ def test_serve_prints_url_and_token_and_serves(tmp_path: Path) -> None:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=30) == 0
     assert (tmp_path / "regolith.db").is_file()
+
+
+def test_a_port_in_use_is_one_line_before_any_banner(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        env = {k: v for k, v in os.environ.items() if not k.startswith("REGOLITH_")}
+        cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
+        cmd += ["--port", str(port), "--data-dir", str(tmp_path)]
+        out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and out.stdout == ""  # no URL, no token: nothing will serve
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"--port {port}" in lines[0] and "in use" in lines[0], out.stderr
+    assert not (tmp_path / "operator-token").exists()
