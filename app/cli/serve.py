@@ -6,16 +6,11 @@ import contextlib
 import errno
 import socket
 from pathlib import Path
-from typing import Annotated, NoReturn
+from typing import Annotated
 
 import typer
 
-USAGE_EXIT = 2
-
-
-def _fail(command: str, message: str, code: int = USAGE_EXIT) -> NoReturn:
-    typer.echo(f"regolith {command}: {message}", err=True)
-    raise typer.Exit(code)
+from app.cli.errors import fail as _fail
 
 
 def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
@@ -69,19 +64,31 @@ def _listen(host: str, port: int) -> socket.socket:
 
 
 def serve(
-    host: Annotated[str, typer.Option("--host", help="Interface to listen on.")] = "127.0.0.1",
-    port: Annotated[int, typer.Option("--port", help="TCP port.")] = 8000,
+    host: Annotated[
+        str, typer.Option("--host", metavar="ADDRESS", help="Interface to listen on.")
+    ] = "127.0.0.1",
+    port: Annotated[int, typer.Option("--port", metavar="PORT", help="TCP port.")] = 8000,
     db: Annotated[
-        str | None, typer.Option("--db", help="SQLAlchemy URL (default: SQLite in --data-dir).")
+        str | None,
+        typer.Option("--db", metavar="URL", help="SQLAlchemy URL (default: SQLite in --data-dir)."),
     ] = None,
     data_dir: Annotated[
-        Path | None, typer.Option("--data-dir", help="Database, token and logs (default ./data).")
+        Path | None,
+        typer.Option(
+            "--data-dir", metavar="DIR", help="Database, token and logs (default ./data)."
+        ),
     ] = None,
-    log_level: Annotated[str, typer.Option("--log-level", help="Log level.")] = "info",
+    log_level: Annotated[
+        str,
+        typer.Option(
+            "--log-level", metavar="LEVEL", help="critical|error|warning|info|debug|trace."
+        ),
+    ] = "info",
     log_format: Annotated[
         str,
         typer.Option(
             "--log-format",
+            metavar="FORMAT",
             envvar="REGOLITH_LOG_FORMAT",
             help="json (one object per line), text, or auto: text on a terminal, else json.",
         ),
@@ -146,10 +153,11 @@ def serve(
 
 def upgrade(
     db: Annotated[
-        str | None, typer.Option("--db", help="SQLAlchemy URL (default: SQLite in --data-dir).")
+        str | None,
+        typer.Option("--db", metavar="URL", help="SQLAlchemy URL (default: SQLite in --data-dir)."),
     ] = None,
     data_dir: Annotated[
-        Path | None, typer.Option("--data-dir", help="Data folder (default ./data).")
+        Path | None, typer.Option("--data-dir", metavar="DIR", help="Data folder (default ./data).")
     ] = None,
 ) -> None:
     """Apply the Alembic migrations up to the newest (safe to repeat)."""

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import pytest
 from sqlalchemy import text
 
 from app.db.session import make_engine
@@ -126,6 +127,7 @@ def test_sweep_requests_are_checked(server: LiveServer, api: httpx.Client) -> No
     assert api.get("/api/sweeps/99/figures/makespan.png").status_code == 404
 
 
+@pytest.mark.sqlite_only  # paths on disk, whatever the database
 def test_figure_and_file_names_cannot_leave_the_sweep_folder(
     server: LiveServer, api: httpx.Client
 ) -> None:
