@@ -8,7 +8,7 @@ RUN_STAMP := $(VENV)/.installed-run
 HOST    ?= 127.0.0.1
 PORT    ?= 8000
 
-.PHONY: run test lint format browser bench clean
+.PHONY: run test lint format browser postgresql bench clean
 
 $(BIN)/pip:
 	$(PY) -m venv $(VENV)
@@ -36,13 +36,20 @@ browser:
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
 	fi
 
+# Debian's PostgreSQL server binaries (initdb, pg_ctl) for the API suite's PostgreSQL half;
+# only root can apt-get, others get a skip message (CI, as root, must have them).
+postgresql:
+	@if ! ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 && [ "$$(id -u)" = "0" ]; then \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq postgresql >/dev/null; \
+	fi
+
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy engine
 	$(BIN)/lint-imports
 
-test: $(STAMP) browser lint
+test: $(STAMP) browser postgresql lint
 	$(BIN)/pytest -q
 
 format: $(STAMP)
