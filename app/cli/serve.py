@@ -45,21 +45,18 @@ def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
 
 
 def _listen(host: str, port: int) -> socket.socket:
-    """The server's socket, bound before anything is printed: a port in use is one line."""
+    """The server's socket, bound (as uvicorn binds it) before anything is printed: a port in
+    use is one line, not a banner with a URL that will never answer."""
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
     try:
-        family, kind, proto, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
-    except (socket.gaierror, UnicodeError) as exc:
-        _fail("serve", f"--host {host}: not an address of this machine ({exc})")
-    sock = socket.socket(family, kind, proto)
-    try:
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn does
-        if family == socket.AF_INET6 and host == "::":
-            sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 0)
-        sock.bind(address)
-    except OSError as exc:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((host, port))
+    except OSError as exc:  # in use, not an address of this machine, a privileged port …
         sock.close()
         why = "in use by another program" if exc.errno == errno.EADDRINUSE else exc.strerror
-        _fail("serve", f"--port {port}: cannot listen on {host}:{port} ({why})")
+        bad_host = isinstance(exc, socket.gaierror) or exc.errno == errno.EADDRNOTAVAIL
+        option = f"--host {host}" if bad_host else f"--port {port}"
+        _fail("serve", f"{option}: cannot listen on {host}:{port} ({why or exc})")
     return sock
 
 
