@@ -16,8 +16,9 @@ COPY pyproject.toml README.md ./
 COPY engine ./engine
 COPY experiments ./experiments
 COPY app ./app
-# The experiments extra (matplotlib, Dask) too: the server starts sweeps.
-RUN pip install '.[experiments]' \
+# The experiments extra (matplotlib, Dask) too: the server starts sweeps; and PostgreSQL's
+# driver, for REGOLITH_DB_URL=postgresql+psycopg://…
+RUN pip install '.[experiments,postgresql]' \
     && useradd --system --uid 10001 --home-dir /srv/regolith regolith \
     && mkdir -p /data && chown regolith /data
 # Found from the working directory at run time: migrations are applied at start.

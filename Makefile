@@ -3,19 +3,30 @@ PY      ?= python3
 VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
+RUN_STAMP := $(VENV)/.installed-run
+# `make run HOST=0.0.0.0 PORT=9000` serves elsewhere (the defaults: this machine only, 8000).
 HOST    ?= 127.0.0.1
 PORT    ?= 8000
 
-.PHONY: run test lint format browser bench clean
+.PHONY: run test lint format browser postgresql bench clean
 
-# `.[dev]` includes the experiments extra (matplotlib, Dask): the server starts sweeps.
-$(STAMP): pyproject.toml
+$(BIN)/pip:
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
-	touch $(STAMP)
 
-run: $(STAMP)
+# What serving needs: the package and the experiments extra (matplotlib, Dask): the server
+# starts sweeps.
+$(RUN_STAMP): pyproject.toml | $(BIN)/pip
+	$(BIN)/pip install --quiet -e '.[experiments]'
+	touch $(RUN_STAMP)
+
+# Everything for `make test`: `.[dev]` adds the test, lint and type-check tools (and
+# PostgreSQL's driver: the API suite runs on PostgreSQL too). It includes the run set.
+$(STAMP): pyproject.toml | $(BIN)/pip
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $(STAMP) $(RUN_STAMP)
+
+run: $(RUN_STAMP)
 	$(BIN)/regolith db upgrade
 	$(BIN)/regolith serve --host $(HOST) --port $(PORT)
 
@@ -25,13 +36,20 @@ browser:
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; \
 	fi
 
+# Debian's PostgreSQL server binaries (initdb, pg_ctl) for the API suite's PostgreSQL half;
+# only root can apt-get, others get a skip message (CI, as root, must have them).
+postgresql:
+	@if ! ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 && [ "$$(id -u)" = "0" ]; then \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq postgresql >/dev/null; \
+	fi
+
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy engine
 	$(BIN)/lint-imports
 
-test: $(STAMP) browser lint
+test: $(STAMP) browser postgresql lint
 	$(BIN)/pytest -q
 
 format: $(STAMP)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import fcntl
 import os
 from pathlib import Path
+from typing import Protocol
 
 LOCK_NAME = "regolith.lock"
 
@@ -22,12 +23,23 @@ class DataDirBusy(RuntimeError):
     """Another process holds the lock; the message names the folder and that process."""
 
 
+class _Held(Protocol):
+    def release(self) -> None: ...
+
+
 class DataLock:
-    """Exclusive locks on some files, held until `release()` or the end of the process."""
+    """Exclusive locks on some files, held until `release()` or the end of the process.
+
+    `hold(lock)` adds another lock (the database's, app/db/serverlock.py) released with them.
+    """
 
     def __init__(self, paths: list[Path]) -> None:
         self.paths = paths
         self._fds: list[int] = []
+        self._also: list[_Held] = []
+
+    def hold(self, lock: _Held) -> None:
+        self._also.append(lock)
 
     def acquire(self) -> DataLock:
         try:
@@ -39,6 +51,9 @@ class DataLock:
         return self
 
     def release(self) -> None:
+        for lock in reversed(self._also):
+            lock.release()
+        self._also.clear()
         for fd in reversed(self._fds):
             os.close(fd)  # closing the only descriptor drops the flock
         self._fds.clear()

@@ -13,7 +13,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette.concurrency import run_in_threadpool
 
 from app import logs
-from app.api import errors
+from app.api import docs, errors
 from app.api.deps import Services
 from app.api.routes import api_router
 from app.datalock import DataLock
@@ -105,8 +105,11 @@ def create_app(settings: Settings | None = None, held: DataLock | None = None) -
         summary="Mission control for auction-based lunar mining robot teams",
         version="0.1.0",
         lifespan=_lifespan(settings, held),
+        docs_url=None,  # app/api/docs.py: the same pages, with their assets served locally
+        redoc_url=None,
     )
     errors.install(app)
+    docs.install(app)
     app.include_router(api_router)
     app.include_router(sweep_routes.router, prefix="/api")
     app.add_middleware(LimitBodyMiddleware, max_bytes=1_000_000)

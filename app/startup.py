@@ -3,13 +3,16 @@
 `regolith serve` runs this before uvicorn, so a refusal is one line on stderr and exit code
 1, not a lifespan traceback; an application started another way (tests, an embedding ASGI
 server) runs it in its lifespan instead. First the data folder's lock (one server per
-folder), then, holding it, the SQLite integrity check (nobody can be writing meanwhile).
+folder), then, holding it, the SQLite integrity check (nobody can be writing meanwhile), or
+on PostgreSQL the database's advisory lock (one server per database, whatever its folder),
+which also tells at once when the database cannot be reached.
 """
 
 from __future__ import annotations
 
 from app.datalock import DataDirBusy, DataLock, lock_paths
 from app.db.integrity import CorruptDatabase, check_sqlite, sqlite_file
+from app.db.serverlock import DatabaseBusy, DatabaseUnreachable, ServerLock, needs_server_lock
 from app.settings import Settings
 
 
@@ -25,7 +28,9 @@ def preflight(settings: Settings) -> DataLock:
         lock.acquire()
         if path is not None:
             check_sqlite(path)
-    except (DataDirBusy, CorruptDatabase) as exc:
+        elif needs_server_lock(settings.database_url):
+            lock.hold(ServerLock(settings.database_url).acquire())
+    except (DataDirBusy, CorruptDatabase, DatabaseBusy, DatabaseUnreachable) as exc:
         lock.release()
         raise StartupRefused(str(exc)) from None
     except OSError as exc:

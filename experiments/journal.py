@@ -156,21 +156,38 @@ def _grid_text(grid: Any) -> str:
 
 @contextmanager
 def exclusive(out_dir: Path) -> Iterator[None]:
-    """Hold an advisory lock so two sweeps never append to one journal at once."""
+    """Hold an advisory lock so two sweeps never append to one journal at once.
+
+    The lock file is removed when the sweep ends (nothing is left behind in the results),
+    while still locked. A sweep that opened it just before, and locks it just after, would
+    then hold a lock on a file no longer there, beside a newer sweep's: so a lock counts only
+    if the file it is on is still the one at the path, else it is taken again.
+    """
     try:
         import fcntl
     except ImportError:  # pragma: no cover - not on POSIX: no lock, single-writer by convention
         yield
         return
-    with (out_dir / LOCK).open("a") as fh:
+    path = out_dir / LOCK
+    while True:
+        fh = path.open("a")
         try:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
+            fh.close()
             raise SweepConflict(f"another sweep is writing to {out_dir}") from None
         try:
-            yield
-        finally:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+            current = path.stat().st_ino
+        except FileNotFoundError:
+            current = None
+        if current == os.fstat(fh.fileno()).st_ino:
+            break
+        fh.close()  # the previous holder removed it meanwhile: lock the new one
+    try:
+        yield
+    finally:
+        path.unlink(missing_ok=True)
+        fh.close()  # drops the lock
 
 
 def write_atomic(path: Path, text: str) -> None:

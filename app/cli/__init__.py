@@ -5,14 +5,16 @@ from __future__ import annotations
 import typer
 
 from app.cli import run as _run
+from app.cli.errors import Group
 
 cli = typer.Typer(
     name="regolith",
+    cls=Group,  # Click's usage errors as one line, like Regolith's own (app/cli/errors.py)
     help="Mission control for auction-based lunar mining robot teams.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
-    rich_markup_mode=None,  # usage errors as one plain line (exit 2), not a Rich box
+    rich_markup_mode=None,  # plain help, no Rich boxes
 )
 cli.command(name="run")(_run.run)
 

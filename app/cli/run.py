@@ -5,12 +5,15 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 import time
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
+from app.cli.errors import USAGE_EXIT
+from app.cli.progress import ProgressLine, run_with_progress
 from engine import (
     EngineError,
     ScenarioError,
@@ -22,13 +25,15 @@ from engine import (
 )
 from engine.scenario import Scenario
 
+NOT_COMPLETED_EXIT = 1  # the mission ended without completing (timeout, stalled)
+
 _AT = re.compile(r"^(?P<what>[a-z]+(?:-\d+)?)@(?P<t>[0-9]*\.?[0-9]+)(?::(?P<mode>[a-z]+))?$")
 
 
 def fail_usage(message: str) -> typer.Exit:
-    """Print a one-line error and leave with exit code 2 (bad usage), never a traceback."""
-    typer.echo(f"error: {message}", err=True)
-    return typer.Exit(code=2)
+    """Print a one-line error (app/cli/errors.py); raise what this returns: exit code 2."""
+    typer.echo(f"regolith run: {message}", err=True)
+    return typer.Exit(code=USAGE_EXIT)
 
 
 def build_scenario(scenario: Path | None, scale: int) -> Scenario:
@@ -87,13 +92,16 @@ def summary(m: dict[str, Any]) -> str:
             )
     lines.append(
         f"  auctions {m['auctions']}, bids {m['bids']}, declines {m['declines']}, "
-        f"re-announcements {m['reannouncements']}, messages {m['messages']}"
+        f"re-announcements {m['reannouncements']}"
     )
-    if m["failures"] or m["messages_lost"]:
+    # `messages` counts broadcasts, `messages_lost` the copies a lossy bus did not deliver
+    # (a broadcast goes to every other robot, each copy lost on its own): say so
+    lost = f"; {m['messages_lost']} copies lost (one per robot that missed one)"
+    lines.append(f"  messages        {m['messages']} broadcast{lost if m['messages_lost'] else ''}")
+    if m["failures"] or m["minerals_dropped"]:
         lines.append(
             f"  failures {m['failures']}, re-auctions {m['reauctions']}, minerals dropped "
-            f"{m['minerals_dropped']} / recovered {m['minerals_recovered']}, "
-            f"messages lost {m['messages_lost']}"
+            f"{m['minerals_dropped']} / recovered {m['minerals_recovered']}"
         )
     lines.append(f"  wall time       {m['wall_s']:.3f} s")
     return "\n".join(lines)
@@ -151,24 +159,52 @@ def _finite(v: Any) -> Any:
 
 
 def run(
-    policy: Annotated[str, typer.Option(help=f"Policy number or name: {policy_help()}")],
-    seed: Annotated[int, typer.Option(min=0, help="Seed of the world and every random draw")],
+    policy: Annotated[
+        str, typer.Option(metavar="POLICY", help=f"Policy number or name: {policy_help()}")
+    ],
+    seed: Annotated[
+        int, typer.Option(min=0, metavar="N", help="Seed of the world and every random draw")
+    ] = 0,
     scenario: Annotated[
-        Path | None, typer.Option(help="Scenario file (.toml or .json); default: reference")
+        Path | None,
+        typer.Option(metavar="FILE", help="Scenario file (.toml or .json); default: reference"),
     ] = None,
-    scale: Annotated[int, typer.Option(help="K× team, sites, minerals; √K× area side")] = 1,
+    scale: Annotated[
+        int, typer.Option(metavar="K", help="K× team, sites, minerals; √K× area side")
+    ] = 1,
     json_out: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
-    loss: Annotated[float | None, typer.Option(help="Bus loss probability 0..0.9")] = None,
-    latency: Annotated[float | None, typer.Option(help="Bus latency (s)")] = None,
-    jitter: Annotated[float | None, typer.Option(help="Bus latency jitter (s)")] = None,
-    fail: Annotated[list[str], typer.Option(help="NAME@T[:graceful|abrupt], repeatable")] = [],  # noqa: B006 - typer needs a literal default
-    enable: Annotated[list[str], typer.Option(help="NAME@T, repeatable")] = [],  # noqa: B006
-    add: Annotated[list[str], typer.Option(help="TYPE@T, repeatable")] = [],  # noqa: B006
+    loss: Annotated[
+        float | None, typer.Option(metavar="P", help="Bus loss probability 0..0.9")
+    ] = None,
+    latency: Annotated[
+        float | None, typer.Option(metavar="SECONDS", help="Bus latency (s)")
+    ] = None,
+    jitter: Annotated[
+        float | None, typer.Option(metavar="SECONDS", help="Bus latency jitter (s)")
+    ] = None,
+    fail: Annotated[
+        list[str],
+        typer.Option(metavar="NAME@T[:MODE]", help="Fail a robot at T s: graceful|abrupt; repeat"),
+    ] = [],  # noqa: B006 - typer needs a literal default
+    enable: Annotated[
+        list[str], typer.Option(metavar="NAME@T", help="Bring a robot back at T s; repeat")
+    ] = [],  # noqa: B006
+    add: Annotated[
+        list[str], typer.Option(metavar="TYPE@T", help="Add a scout|excavator|hauler; repeat")
+    ] = [],  # noqa: B006
     planner: Annotated[
-        str, typer.Option(help="ompl (RRT-Connect, the study's) | exact (shortest paths)")
+        str,
+        typer.Option(
+            metavar="PLANNER", help="ompl (RRT-Connect, the study's) | exact (shortest paths)"
+        ),
     ] = "ompl",
 ) -> None:
-    """Run one mission headless and print its figures."""
+    """Run one mission headless and print its figures.
+
+    Exit code 0 when the mission completed, 1 when it ended otherwise (timeout, stalled:
+    the figures are printed all the same), 2 for a bad argument. On a terminal, stderr shows
+    the progress (simulated time, minerals, sites) while it runs.
+    """
     try:
         policy_name = resolve_policy(policy)
     except ValueError as exc:
@@ -193,7 +229,11 @@ def run(
         raise fail_usage(f"--planner: must be ompl or exact, not {planner!r}")
     t0 = time.perf_counter()
     try:
-        metrics = run_mission(scen, seed, policy_name, actions, planner=planner)  # type: ignore[arg-type]
+        if not json_out and sys.stderr.isatty():
+            line = ProgressLine(sys.stderr)
+            metrics = run_with_progress(scen, seed, policy_name, actions, line, planner)  # type: ignore[arg-type]
+        else:
+            metrics = run_mission(scen, seed, policy_name, actions, planner=planner)  # type: ignore[arg-type]
     except (EngineError, ScenarioError) as exc:
         # an action the mission refuses (unknown robot, bad time …), or a world the scenario
         # cannot make for this seed (sites that do not fit): the user's input, not a bug
@@ -206,3 +246,5 @@ def run(
         typer.echo(json.dumps(_finite(metrics), sort_keys=True))
     else:
         typer.echo(summary(metrics))
+    if metrics["status"] != "completed":
+        raise typer.Exit(NOT_COMPLETED_EXIT)

@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import socket
 from pathlib import Path
-from typing import Annotated, NoReturn
+from typing import Annotated
 
 import typer
 
-USAGE_EXIT = 2
-
-
-def _fail(command: str, message: str, code: int = USAGE_EXIT) -> NoReturn:
-    typer.echo(f"regolith {command}: {message}", err=True)
-    raise typer.Exit(code)
+from app.cli.errors import fail as _fail
 
 
 def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
@@ -46,20 +44,48 @@ def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
     return settings
 
 
+def _listen(host: str, port: int) -> socket.socket:
+    """The server's socket, bound (as uvicorn binds it) before anything is printed: a port in
+    use is one line, not a banner with a URL that will never answer."""
+    sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((host, port))
+    except OSError as exc:  # in use, not an address of this machine, a privileged port …
+        sock.close()
+        why = "in use by another program" if exc.errno == errno.EADDRINUSE else exc.strerror
+        bad_host = isinstance(exc, socket.gaierror) or exc.errno == errno.EADDRNOTAVAIL
+        option = f"--host {host}" if bad_host else f"--port {port}"
+        _fail("serve", f"{option}: cannot listen on {host}:{port} ({why or exc})")
+    return sock
+
+
 def serve(
-    host: Annotated[str, typer.Option("--host", help="Interface to listen on.")] = "127.0.0.1",
-    port: Annotated[int, typer.Option("--port", help="TCP port.")] = 8000,
+    host: Annotated[
+        str, typer.Option("--host", metavar="ADDRESS", help="Interface to listen on.")
+    ] = "127.0.0.1",
+    port: Annotated[int, typer.Option("--port", metavar="PORT", help="TCP port.")] = 8000,
     db: Annotated[
-        str | None, typer.Option("--db", help="SQLAlchemy URL (default: SQLite in --data-dir).")
+        str | None,
+        typer.Option("--db", metavar="URL", help="SQLAlchemy URL (default: SQLite in --data-dir)."),
     ] = None,
     data_dir: Annotated[
-        Path | None, typer.Option("--data-dir", help="Database, token and logs (default ./data).")
+        Path | None,
+        typer.Option(
+            "--data-dir", metavar="DIR", help="Database, token and logs (default ./data)."
+        ),
     ] = None,
-    log_level: Annotated[str, typer.Option("--log-level", help="Log level.")] = "info",
+    log_level: Annotated[
+        str,
+        typer.Option(
+            "--log-level", metavar="LEVEL", help="critical|error|warning|info|debug|trace."
+        ),
+    ] = "info",
     log_format: Annotated[
         str,
         typer.Option(
             "--log-format",
+            metavar="FORMAT",
             envvar="REGOLITH_LOG_FORMAT",
             help="json (one object per line), text, or auto: text on a terminal, else json.",
         ),
@@ -82,6 +108,7 @@ def serve(
         _fail("serve", f"--log-format {log_format}: choose auto|json|text")
     settings = _settings("serve", db, data_dir)
     assert isinstance(settings, Settings)
+    sock = _listen(host, port)
     try:
         token = resolve_token(settings)
     except OSError as exc:
@@ -102,7 +129,7 @@ def serve(
         logs.default_format() if log_format == "auto" else fmt,
         "DEBUG" if log_level == "trace" else log_level.upper(),
     )
-    uvicorn.run(
+    config = uvicorn.Config(
         create_app(settings, held=lock),
         host=host,
         port=port,
@@ -114,14 +141,20 @@ def serve(
         # X-Forwarded-For is Regolith's to judge (REGOLITH_TRUSTED_PROXIES), not uvicorn's
         proxy_headers=False,
     )
+    server = uvicorn.Server(config)
+    with sock, contextlib.suppress(KeyboardInterrupt):  # uvicorn re-raises SIGINT when done
+        server.run(sockets=[sock])
+    if not server.started:  # the application refused to start; its log says why
+        raise typer.Exit(1)
 
 
 def upgrade(
     db: Annotated[
-        str | None, typer.Option("--db", help="SQLAlchemy URL (default: SQLite in --data-dir).")
+        str | None,
+        typer.Option("--db", metavar="URL", help="SQLAlchemy URL (default: SQLite in --data-dir)."),
     ] = None,
     data_dir: Annotated[
-        Path | None, typer.Option("--data-dir", help="Data folder (default ./data).")
+        Path | None, typer.Option("--data-dir", metavar="DIR", help="Data folder (default ./data).")
     ] = None,
 ) -> None:
     """Apply the Alembic migrations up to the newest (safe to repeat)."""

@@ -9,48 +9,64 @@ from typing import Annotated, Any, NoReturn
 
 import typer
 
+from app.cli.errors import USAGE_EXIT, fail
 from engine import policy_help
-
-USAGE_EXIT = 2
 
 
 def _fail(message: str, code: int = USAGE_EXIT) -> NoReturn:
-    typer.echo(f"regolith sweep: {message}", err=True)
-    raise typer.Exit(code)
+    fail("sweep", message, code)
 
 
 def sweep(
-    out: Annotated[Path, typer.Option("--out", help="Directory for the journal and results.")],
+    out: Annotated[
+        Path, typer.Option("--out", metavar="DIR", help="Directory for the journal and results.")
+    ],
     policies: Annotated[
         str,
         typer.Option(
-            "--policies", help=f"Policy numbers or names, e.g. 1,2,3; registered: {policy_help()}."
+            "--policies",
+            metavar="LIST",
+            help=f"Policy numbers or names, e.g. 1,2,3; registered: {policy_help()}.",
         ),
     ] = "1,2,3",
-    seeds: Annotated[str, typer.Option("--seeds", help="Seeds, e.g. 0-99 or 1,5,9.")] = "0-9",
+    seeds: Annotated[
+        str, typer.Option("--seeds", metavar="SEEDS", help="Seeds, e.g. 0-99 or 1,5,9.")
+    ] = "0-9",
     scenario: Annotated[
-        Path | None, typer.Option("--scenario", help="Scenario .toml/.json (default: reference).")
+        Path | None,
+        typer.Option(
+            "--scenario", metavar="FILE", help="Scenario .toml/.json (default: reference)."
+        ),
     ] = None,
-    scale: Annotated[int, typer.Option("--scale", help="K× team, sites and area.")] = 1,
+    scale: Annotated[
+        int, typer.Option("--scale", metavar="K", help="K× team, sites and area.")
+    ] = 1,
     workers: Annotated[
-        int | None, typer.Option("--workers", help="Local processes (default: all cores).")
+        int | None,
+        typer.Option("--workers", metavar="N", help="Local processes (default: all cores)."),
     ] = None,
     scheduler: Annotated[
         str | None,
-        typer.Option("--scheduler", help="Run on a Dask cluster, e.g. tcp://host:8786."),
+        typer.Option(
+            "--scheduler", metavar="ADDRESS", help="Run on a Dask cluster, e.g. tcp://host:8786."
+        ),
     ] = None,
     grid: Annotated[
         list[str] | None,
         typer.Option(
             "--grid",
-            metavar="<path=v1,v2>",
+            metavar="PATH=V1,V2",
             help="Scenario override to sweep, PATH=V1,V2,… e.g. speeds.excavator=0.3,0.5; "
             "repeat for a cartesian product.",
         ),
     ] = None,
     grid_file: Annotated[
         Path | None,
-        typer.Option("--grid-file", help="Grid parameters from a .toml/.json: PATH = [values]."),
+        typer.Option(
+            "--grid-file",
+            metavar="FILE",
+            help="Grid parameters from a .toml/.json: PATH = [values].",
+        ),
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
 ) -> None:

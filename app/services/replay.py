@@ -12,7 +12,7 @@ import json
 from time import perf_counter
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.db.models import Event
@@ -74,8 +74,18 @@ async def _check(store: Store, mission_id: int, m: Mission, stored: int) -> None
         after = page[-1][0]
 
 
+def _last_event_t(session: Session, mission_id: int) -> float | None:
+    return session.scalar(select(func.max(Event.t)).where(Event.mission_id == mission_id))
+
+
 async def revive(runner: MissionRunner, store: Store, row: MissionRow) -> LiveMission:
-    """Replay `row` to its last stored simulation time and hand it to the runner (paused)."""
+    """Replay `row` to its last stored simulation time and hand it to the runner (paused).
+
+    That time is the mission's `sim_time`, or its last stored event's if later: a batch's
+    events are written in chunks before the transaction that moves `sim_time` (and stores its
+    auctions), so a crash between them leaves events past `sim_time`. They are the mission's
+    history all the same: replayed, checked, and continued from.
+    """
     gate = runner.gate
     with gate:
         planner = row.planner if row.planner in PLANNERS else "ompl"
@@ -85,7 +95,8 @@ async def revive(runner: MissionRunner, store: Store, row: MissionRow) -> LiveMi
             await _advance_to(gate, m, action.t)
             with gate:
                 m.apply({"t": action.t, "kind": action.kind, "args": action.args})
-        await _advance_to(gate, m, row.sim_time)
+        last_event_t = await store.read(_last_event_t, row.id)
+        await _advance_to(gate, m, max(row.sim_time, last_event_t or 0.0))
         stored = await store.read(stored_counts, row.id)
         await _check(store, row.id, m, stored.events)
     except BaseException:

@@ -1,8 +1,20 @@
-"""A real uvicorn server on 127.0.0.1 with a real SQLite file, started and stopped per test."""
+"""A real uvicorn server on 127.0.0.1 with a real database, started and stopped per test.
+
+Every test here runs twice: on a SQLite file (the default) and on a real PostgreSQL server
+(a throw-away cluster started once, `tests/pgcluster.py`), ids `[sqlite]` and `[postgresql]`.
+The database is one switch: `database_for(data_dir)` gives the URL of the data folder's own
+database (None: SQLite in the folder), and `make_settings` and `ServeProcess` use it, so a
+restart on the same folder finds the same database. A test about SQLite itself (its WAL, its
+integrity check) is marked `sqlite_only`, one about PostgreSQL alone `postgresql_only`.
+Without PostgreSQL's server binaries the `[postgresql]` runs are skipped, with the reason,
+except in CI (CI=true), where they fail.
+`-m "not postgresql"` (or `-k sqlite`) runs the SQLite half alone.
+"""
 
 from __future__ import annotations
 
 import json
+import os
 import socket
 import threading
 import time
@@ -17,6 +29,7 @@ from websockets.sync.client import ClientConnection, connect
 
 from app.main import create_app
 from app.settings import Settings
+from tests.pgcluster import PgCluster, server_bin
 
 TOKEN = "test-operator-token-0123456789"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -76,8 +89,86 @@ class LiveServer:
         return connect(f"ws://127.0.0.1:{self.port}/api/missions/{mission_id}/live", max_size=2**24)
 
 
-def make_settings(data_dir: Path, **overrides: Any) -> Settings:
-    return Settings(data_dir=data_dir, token=TOKEN, **overrides)
+BACKENDS = ("sqlite", "postgresql")
+IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+NO_POSTGRES = (
+    "PostgreSQL's server binaries (initdb, pg_ctl) are missing: install Debian's `postgresql` "
+    "(or set REGOLITH_PG_BIN) to run the API suite on PostgreSQL too"
+)
+
+
+class _Backend:
+    """The database of the tests being run: None (SQLite files) or a PostgreSQL cluster."""
+
+    cluster: PgCluster | None = None
+    databases: dict[Path, str] = {}  # noqa: RUF012 - one table for the session
+
+
+def database_for(data_dir: Path) -> str | None:
+    """The URL of `data_dir`'s database: None for SQLite (the file in the folder), else a
+    PostgreSQL database of its own, created on first use and kept for its restarts."""
+    cluster = _Backend.cluster
+    if cluster is None:
+        return None
+    key = Path(data_dir).resolve()
+    if key not in _Backend.databases:
+        _Backend.databases[key] = cluster.create_database()
+    return _Backend.databases[key]
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """`[postgresql]` runs are marked `postgresql`; a `sqlite_only` (`postgresql_only`) test
+    runs on that database alone."""
+    here = Path(__file__).parent
+    kept, dropped = [], []
+    for item in items:
+        backend = getattr(item, "callspec", None) and item.callspec.params.get("backend")
+        if here not in Path(str(item.fspath)).parents or backend is None:
+            kept.append(item)
+            continue
+        if item.get_closest_marker(f"{'postgresql' if backend == 'sqlite' else 'sqlite'}_only"):
+            dropped.append(item)
+            continue
+        if backend == "postgresql":
+            item.add_marker(pytest.mark.postgresql)
+        kept.append(item)
+    if dropped:
+        config.hook.pytest_deselected(items=dropped)
+        items[:] = kept
+
+
+@pytest.fixture(scope="session", params=BACKENDS, autouse=True)
+def backend(request: pytest.FixtureRequest) -> Iterator[str]:
+    """Every API test on each database; PostgreSQL's cluster lives for the `[postgresql]` half."""
+    if request.param == "sqlite":
+        yield "sqlite"
+        return
+    bindir = server_bin()
+    if bindir is None:
+        if IN_CI:
+            pytest.fail(f"CI=true and {NO_POSTGRES}")
+        pytest.skip(NO_POSTGRES)
+    cluster = PgCluster(bindir).start()
+    _Backend.cluster = cluster
+    try:
+        yield "postgresql"
+    finally:
+        _Backend.cluster = None
+        _Backend.databases.clear()
+        cluster.stop()
+
+
+@pytest.fixture
+def db_url(tmp_path: Path) -> str:
+    """The URL of an empty database for this test, on the backend being run."""
+    return database_for(tmp_path) or f"sqlite:///{tmp_path / 'regolith.db'}"
+
+
+def make_settings(data_dir: Path, token: str | None = TOKEN, **overrides: Any) -> Settings:
+    """Settings for a server on `data_dir` and its database (`database_for`)."""
+    if "db_url" not in overrides:
+        overrides["db_url"] = database_for(data_dir)
+    return Settings(data_dir=data_dir, token=token, **overrides)
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ from types import TracebackType
 
 import httpx
 
-from tests.api.conftest import AUTH, TOKEN
+from tests.api.conftest import AUTH, TOKEN, database_for
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -41,6 +41,8 @@ class ServeProcess:
         self.data_dir.mkdir(parents=True, exist_ok=True)
         cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
         cmd += ["--port", str(self.port), "--data-dir", str(self.data_dir), *self.args]
+        if "--db" not in self.args and (url := database_for(self.data_dir)) is not None:
+            cmd += ["--db", url]
         with self._out.open("wb") as out, self._err.open("wb") as err:  # files: never block it
             self.proc = subprocess.Popen(cmd, env=self.env, cwd=ROOT, stdout=out, stderr=err)
         deadline = time.monotonic() + 60

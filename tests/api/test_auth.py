@@ -12,6 +12,8 @@ from app.security import TOKEN_FILE, load_or_create_token, resolve_token, token_
 from app.settings import Settings
 from tests.api.conftest import LiveServer, make_settings
 
+pytestmark = pytest.mark.sqlite_only  # the token checks touch no database: run them once
+
 MUTATIONS = [
     ("POST", "/api/missions", {"seed": 1}),
     ("POST", "/api/missions/1/pause", None),

@@ -16,7 +16,7 @@ import typer
 from typer.testing import CliRunner
 
 from app.cli.serve import register
-from tests.api.conftest import wait_for
+from tests.api.conftest import database_for, wait_for
 
 
 @pytest.fixture
@@ -28,11 +28,13 @@ def cli() -> typer.Typer:
 
 
 def test_db_upgrade_creates_the_schema_and_repeats_safely(cli: typer.Typer, tmp_path: Path) -> None:
+    url = database_for(tmp_path)
     for _ in range(2):
-        result = CliRunner().invoke(cli, ["db", "upgrade", "--data-dir", str(tmp_path)])
+        args = ["db", "upgrade", "--data-dir", str(tmp_path), *(["--db", url] if url else [])]
+        result = CliRunner().invoke(cli, args)
         assert result.exit_code == 0, result.output
         assert "database at head" in result.output
-    assert (tmp_path / "regolith.db").is_file()
+    assert (tmp_path / "regolith.db").is_file() == (url is None)
 
 
 @pytest.mark.parametrize(
@@ -45,6 +47,7 @@ def test_db_upgrade_creates_the_schema_and_repeats_safely(cli: typer.Typer, tmp_
         (["db", "upgrade", "--db", "nonsense"], "--db"),
     ],
 )
+@pytest.mark.sqlite_only  # the command line's own checks: no database
 def test_bad_arguments_exit_2_with_one_line(cli: typer.Typer, args: list[str], says: str) -> None:
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 2
@@ -52,6 +55,7 @@ def test_bad_arguments_exit_2_with_one_line(cli: typer.Typer, args: list[str], s
     assert len(lines) == 1 and says in lines[0], result.output
 
 
+@pytest.mark.sqlite_only  # the command line's own checks: no database
 def test_data_dir_that_is_a_file_is_refused(cli: typer.Typer, tmp_path: Path) -> None:
     afile = tmp_path / "file"
     afile.write_text("x")
@@ -59,6 +63,7 @@ def test_data_dir_that_is_a_file_is_refused(cli: typer.Typer, tmp_path: Path) ->
     assert result.exit_code == 2 and "not a directory" in result.output
 
 
+@pytest.mark.sqlite_only  # the command line's own checks: no database
 def test_serve_prints_url_and_token_and_serves(tmp_path: Path) -> None:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -90,3 +95,19 @@ def test_serve_prints_url_and_token_and_serves(tmp_path: Path) -> None:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=30) == 0
     assert (tmp_path / "regolith.db").is_file()
+
+
+@pytest.mark.sqlite_only  # the command line's own checks: no database
+def test_a_port_in_use_is_one_line_before_any_banner(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        env = {k: v for k, v in os.environ.items() if not k.startswith("REGOLITH_")}
+        cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
+        cmd += ["--port", str(port), "--data-dir", str(tmp_path)]
+        out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and out.stdout == ""  # no URL, no token: nothing will serve
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"--port {port}" in lines[0] and "in use" in lines[0], out.stderr
+    assert not (tmp_path / "operator-token").exists()

@@ -14,13 +14,15 @@ from typing import Any
 import httpx
 
 from engine import Mission, reference_scenario
-from tests.api.conftest import AUTH, TOKEN, all_pages, run_to_end, wait_for
+from tests.api.conftest import AUTH, TOKEN, all_pages, database_for, run_to_end, wait_for
 
 
 def _serve(data: Path, port: int) -> subprocess.Popen[bytes]:
     env = {**os.environ, "REGOLITH_TOKEN": TOKEN}
     cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
     cmd += ["--port", str(port), "--data-dir", str(data), "--log-level", "warning"]
+    if (url := database_for(data)) is not None:
+        cmd += ["--db", url]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
     def up() -> bool:

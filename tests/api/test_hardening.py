@@ -100,8 +100,11 @@ def test_no_cors_by_default_and_security_headers(server: LiveServer) -> None:
         assert "access-control-allow-origin" not in r.headers
         assert r.headers["x-frame-options"] == "DENY"
         assert "default-src 'self'" in r.headers["content-security-policy"]
-        docs = anon.get("/docs")  # Swagger UI comes from a CDN: no CSP there
-        assert docs.status_code == 200 and "content-security-policy" not in docs.headers
+        for page in ("/docs", "/redoc"):  # served with their assets: this origin only
+            docs = anon.get(page)
+            csp = docs.headers["content-security-policy"]
+            assert docs.status_code == 200 and "default-src 'self';" in csp, page
+            assert "http" not in csp and "http" not in docs.text.replace(docs.url.host, ""), page
 
 
 def test_metrics_in_prometheus_format(server: LiveServer) -> None:

@@ -275,6 +275,7 @@ async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, An
     return out
 
 
+@pytest.mark.sqlite_only  # the fan-out, whatever the database
 def test_a_stalled_viewer_queues_then_is_dropped_and_others_keep_their_frames(
     tmp_path: Path,
 ) -> None:

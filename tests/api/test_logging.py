@@ -41,6 +41,7 @@ def _one(lines: list[Line], **match: Any) -> Line:
     return found[0]
 
 
+@pytest.mark.sqlite_only  # the log lines, whatever the database
 def test_serve_logs_json_lines_with_ids_and_never_the_token(tmp_path: Path) -> None:
     """The real command at its noisiest level (trace: uvicorn logs every ASGI message)."""
     wrong = "Bearer wrong-token-value-0123456789"
@@ -141,6 +142,7 @@ def test_query_keys_are_judged_decoded_and_subprotocols_never_logged() -> None:
     assert logs.redact("{'subprotocol': 's3cret'}") == "{'subprotocol': ***}"
 
 
+@pytest.mark.sqlite_only  # the log lines, whatever the database
 def test_serve_never_logs_an_encoded_query_token_or_a_subprotocol(tmp_path: Path) -> None:
     """`?tok%65n=` is `token` to the server and was logged whole; so was a token offered as a
     WebSocket subprotocol (the websockets library logs handshake headers at debug, uvicorn

@@ -7,6 +7,8 @@ import os
 import signal
 from pathlib import Path
 
+import pytest
+
 from tests.api.conftest import wait_for
 from tests.api.serve_process import ServeProcess
 
@@ -45,6 +47,7 @@ def _running(pid: int) -> bool:
     return stat.rpartition(")")[2].split()[0] != "Z"  # a zombie holds no memory
 
 
+@pytest.mark.sqlite_only  # worker processes, whatever the database
 def test_sweep_workers_die_with_a_killed_server(tmp_path: Path) -> None:
     with ServeProcess(tmp_path, "--log-level", "warning", REGOLITH_SWEEP_WORKERS="2") as srv:
         assert srv.proc is not None

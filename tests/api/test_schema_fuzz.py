@@ -21,8 +21,8 @@ CROSS_FIELD = [schemathesis.checks.positive_data_acceptance]
 
 
 @pytest.fixture(scope="module")
-def fuzz_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
-    data: Path = tmp_path_factory.mktemp("fuzz")
+def fuzz_server(tmp_path_factory: pytest.TempPathFactory, backend: str) -> Iterator[LiveServer]:
+    data: Path = tmp_path_factory.mktemp(f"fuzz-{backend}")
     server = LiveServer(make_settings(data, rate_limit_per_s=0, max_running_missions=1000))
     server.start()
     with server.client() as api:  # something to find for the {mission_id} paths

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.api.conftest import TOKEN, LiveServer, make_settings, run_to_end
+from tests.api.conftest import TOKEN, LiveServer, database_for, make_settings, run_to_end
 from tests.api.serve_process import ROOT, ServeProcess, free_port
 
 PAGE = 4096
@@ -27,8 +27,15 @@ def _regolith(*args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, timeout=120)
 
 
-def _serve(data: Path) -> subprocess.CompletedProcess[str]:
-    return _regolith("serve", "--port", str(free_port()), "--data-dir", str(data))
+def _db(data: Path) -> list[str]:
+    """The data folder's database on the backend being run (none: SQLite in the folder)."""
+    url = database_for(data)
+    return ["--db", url] if url else []
+
+
+def _serve(data: Path, *db: str) -> subprocess.CompletedProcess[str]:
+    args = ("serve", "--port", str(free_port()), "--data-dir", str(data))
+    return _regolith(*args, *(db or _db(data)))
 
 
 def _one_line(result: subprocess.CompletedProcess[str], command: str, *says: str) -> str:
@@ -57,7 +64,9 @@ def test_a_second_server_on_the_same_data_folder_refuses_to_start(tmp_path: Path
             line = _one_line(_serve(tmp_path), "serve", str(tmp_path), "in use", str(os.getpid()))
             assert "another Regolith server" in line
             _one_line(
-                _regolith("db", "upgrade", "--data-dir", str(tmp_path)), "db upgrade", "in use"
+                _regolith("db", "upgrade", "--data-dir", str(tmp_path), *_db(tmp_path)),
+                "db upgrade",
+                "in use",
             )
             second = LiveServer(make_settings(tmp_path))
             with pytest.raises(RuntimeError):  # embedded (no CLI): the lifespan refuses too
@@ -82,6 +91,37 @@ def _damage(db: Path) -> None:
 
 
 @EMBEDDED_REFUSAL
+@pytest.mark.postgresql_only
+def test_a_second_server_on_the_same_postgresql_database_refuses_to_start(
+    tmp_path: Path,
+) -> None:
+    """Another data folder, the same database: the database's advisory lock refuses it."""
+    first = LiveServer(make_settings(tmp_path / "one")).start()
+    url = database_for(tmp_path / "one")
+    assert url is not None
+    try:
+        with first.client() as api:
+            mid = api.post("/api/missions", json={"paused": True}).json()["id"]
+            other = tmp_path / "two"
+            line = _one_line(_serve(other, "--db", url), "serve", "in use", str(os.getpid()))
+            assert "another Regolith server" in line and "advisory lock" in line
+            upgrade = _regolith("db", "upgrade", "--data-dir", str(other), "--db", url)
+            _one_line(upgrade, "db upgrade", "in use")
+            second = LiveServer(make_settings(other, db_url=url))
+            with pytest.raises(RuntimeError):  # embedded: the lifespan refuses too
+                second.start()
+            assert api.get(f"/api/missions/{mid}").json()["status"] == "paused"
+    finally:
+        first.stop()
+    # the lock went with the first server's connection
+    with ServeProcess(tmp_path / "two", "--db", url) as srv, srv.client() as api:
+        assert api.get(f"/api/missions/{mid}").json()["status"] == "interrupted"
+    gone = url.rsplit("/", 1)[0] + "/no_such_database"
+    _one_line(_serve(tmp_path / "three", "--db", gone), "serve", "cannot connect", "no_such")
+
+
+@EMBEDDED_REFUSAL
+@pytest.mark.sqlite_only
 def test_a_damaged_database_is_refused_with_what_is_wrong(tmp_path: Path) -> None:
     good = tmp_path / "good"
     server = LiveServer(make_settings(good)).start()
@@ -106,6 +146,7 @@ def test_a_damaged_database_is_refused_with_what_is_wrong(tmp_path: Path) -> Non
         assert api.get(f"/api/missions/{mid}").json()["status"] == "completed"
 
 
+@pytest.mark.sqlite_only
 def test_a_file_that_is_not_a_database_is_refused(tmp_path: Path) -> None:
     (tmp_path / "regolith.db").write_bytes(b"this is not SQLite" * 1000)
     _one_line(_serve(tmp_path), "serve", "is damaged", "not a database")

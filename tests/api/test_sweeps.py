@@ -1,16 +1,17 @@
 """Sweeps over the API: a background job with stored progress, results and figures, limits,
-cancel, and resume after a cancel or a server stop. Real server, real SQLite, real engine on
+cancel, and resume after a cancel or a server stop. Real server, real database, real engine on
 a small scenario (each run ~0.3 s)."""
 
 from __future__ import annotations
 
-import sqlite3
-from contextlib import closing
 from pathlib import Path
 from typing import Any
 
 import httpx
+import pytest
+from sqlalchemy import text
 
+from app.db.session import make_engine
 from tests.api.conftest import LiveServer, wait_for
 
 SMALL: dict[str, Any] = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
@@ -34,9 +35,13 @@ def _until(api: httpx.Client, sid: int, *statuses: str, seen: list[Any] | None =
 
 
 def _stored_done(server: LiveServer, sid: int) -> int:
-    with closing(sqlite3.connect(Path(server.settings.data_dir) / "regolith.db")) as db:
-        done: int = db.execute("select done from sweeps where id = ?", (sid,)).fetchone()[0]
-        return done
+    engine = make_engine(server.settings.database_url)  # behind the server's back
+    try:
+        with engine.connect() as db:
+            done: int = db.scalar(text("select done from sweeps where id = :id"), {"id": sid})
+            return done
+    finally:
+        engine.dispose()
 
 
 def test_sweep_runs_in_the_background_and_serves_its_results(
@@ -122,6 +127,7 @@ def test_sweep_requests_are_checked(server: LiveServer, api: httpx.Client) -> No
     assert api.get("/api/sweeps/99/figures/makespan.png").status_code == 404
 
 
+@pytest.mark.sqlite_only  # paths on disk, whatever the database
 def test_figure_and_file_names_cannot_leave_the_sweep_folder(
     server: LiveServer, api: httpx.Client
 ) -> None:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import threading
 from pathlib import Path
 
+import pytest
+
 from tests.api.conftest import LiveServer, make_settings, run_to_end, wait_for
 
 MB = 1024 * 1024
@@ -18,6 +20,7 @@ def _size(path: Path) -> int:
         return 0
 
 
+@pytest.mark.sqlite_only
 def test_the_wal_is_truncated_during_and_after_a_mission_at_max_speed(tmp_path: Path) -> None:
     server = LiveServer(make_settings(tmp_path)).start()
     wal = tmp_path / "regolith.db-wal"

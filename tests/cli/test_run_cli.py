@@ -111,7 +111,9 @@ def test_a_scenario_that_cannot_run_is_one_line_and_exit_2(tmp_path: Path, text:
     out = CliRunner().invoke(cli, ["run", "--policy", "1", "--seed", "0", "--scenario", str(path)])
     assert out.exit_code == 2, out.output
     lines = [ln for ln in out.output.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("error: ") and says in lines[0], out.output
+    assert len(lines) == 1 and lines[0].startswith("regolith run: ") and says in lines[0], (
+        out.output
+    )
 
 
 def test_the_exact_planner_is_never_longer_and_a_bad_planner_is_one_line():

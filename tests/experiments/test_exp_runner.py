@@ -156,3 +156,35 @@ def test_a_worker_with_another_engine_build_is_not_journaled(
     with pytest.raises(SweepError, match="differs from this sweep's pinned-build"):
         sweep(fake_spec("1", "0-1"), tmp_path, Counting(), outputs=False)
     assert (tmp_path / JOURNAL).read_text() == ""
+
+
+def test_the_lock_holds_while_a_sweep_writes_and_is_gone_after(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import fcntl
+
+    from experiments.journal import LOCK, exclusive
+
+    with exclusive(tmp_path):
+        assert (tmp_path / LOCK).exists()
+        with pytest.raises(SweepConflict, match="another sweep is writing"), exclusive(tmp_path):
+            pass
+    assert not (tmp_path / LOCK).exists()
+    result = sweep(fake_spec(seeds="0-1"), tmp_path / "out", Counting())
+    assert result.ran == 6 and not (tmp_path / "out" / LOCK).exists()
+
+    # A sweep opens the file, the holder finishes (removes it) and a third sweep locks a new
+    # one, then the first gets its lock, on the removed file: it must not count.
+    real_flock, newer = fcntl.flock, []
+
+    def flock_after_a_handover(fd: int, op: int) -> None:
+        if not newer:
+            (tmp_path / LOCK).unlink()
+            newer.append((tmp_path / LOCK).open("a"))
+            real_flock(newer[0].fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        real_flock(fd, op)
+
+    monkeypatch.setattr(fcntl, "flock", flock_after_a_handover)
+    with pytest.raises(SweepConflict, match="another sweep is writing"), exclusive(tmp_path):
+        pass
+    newer[0].close()

@@ -1,0 +1,84 @@
+"""`regolith run`'s progress line: simulated time, minerals and sites, in place on a terminal.
+
+A long mission (a lossy bus, a large scale) can take minutes; on a terminal stderr shows
+where it is, rewritten at most `every_s` of wall time apart and erased at the end. Nothing is
+printed when stderr is not a terminal (a pipe, a log file, CI) or with `--json`.
+
+The mission is driven in steps of simulated time (`Mission.advance`, as the live server drives
+it), which gives the same run, bit for bit, as running it in one go (`run_mission`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from typing import Any, TextIO
+
+from engine import Mission
+from engine.mission import PlannerKind
+from engine.scenario import Scenario
+
+STEP_S = 10.0  # simulated seconds per step between looks at the wall clock
+
+
+def _clock(seconds: float) -> str:
+    s = int(seconds)
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+class ProgressLine:
+    """One status line on `out`, rewritten in place (carriage return, erase to line end)."""
+
+    def __init__(self, out: TextIO, every_s: float = 0.2) -> None:
+        self.out = out
+        self.every_s = every_s
+        self._start = time.monotonic()
+        self._last = -float("inf")
+
+    def show(self, m: Mission, force: bool = False) -> None:
+        now = time.monotonic()
+        if not force and now - self._last < self.every_s:
+            return
+        self._last = now
+        c = m.counters()
+        line = (
+            f"t {m.now:,.0f} of {m.scenario.max_time_s:,.0f} s simulated"
+            f" | minerals {c['minerals_delivered']}/{c['minerals_total']}"
+            f" | sites {c['sites_found']}/{c['sites_total']}"
+            f" | {_clock(now - self._start)} elapsed"
+        )
+        self.out.write(f"\r{line}\x1b[K")
+        self.out.flush()
+
+    def clear(self) -> None:
+        self.out.write("\r\x1b[K")
+        self.out.flush()
+
+
+def run_with_progress(
+    scenario: Scenario,
+    seed: int,
+    policy: str,
+    actions: Iterable[dict[str, Any]],
+    line: ProgressLine,
+    planner: PlannerKind = "ompl",
+) -> dict[str, Any]:
+    """`engine.run_mission`, showing its progress on `line` as it goes."""
+    m = Mission(scenario, seed, policy, planner)
+    try:
+        try:
+            for action in sorted(actions, key=lambda a: float(a["t"])):
+                _advance(m, float(action["t"]), line)
+                m.apply(action)
+            _advance(m, float("inf"), line)
+        finally:
+            line.clear()
+        return m.metrics()
+    finally:
+        m.close()
+
+
+def _advance(m: Mission, until: float, line: ProgressLine) -> None:
+    while not m.done and m.now < until:
+        m.advance(min(until, m.now + STEP_S))
+        line.show(m)
