@@ -1,0 +1,318 @@
+"""The clairvoyant reference (`offline`): plan the whole mission, then carry the plan out.
+
+At its first decision the allocator reads what no robot could know — every site's place and
+pile, when the scouts' fixed spirals will find each one (predicted by driving their routes on
+paper), every excavator's and hauler's position — and asks `engine.schedule.optimize` for a
+schedule: each excavator's sites in order, each hauler's minerals in order. Then it carries
+the schedule out in the same simulator, through the same auctions:
+
+- an auction asks for its winner (`rank`): if the plan gives its task (a site, or a
+  transport at a site) to a robot whose *next* planned task it is, that robot wins as soon
+  as it has room; until then the auction waits. Tasks the plan does not cover (an injected
+  task, a mineral on the ground, a transport offered again) go by central-greedy's rule
+  among the robots with room;
+- a robot with nothing to do drives to the site of its next planned task and waits there
+  (`standby`): an excavator stands on a site before a scout has found it, and digs only once
+  it is found and the auction is won, as the task chain requires (docs/spec.md §3).
+
+**Repair.** When the team changes (a robot fails, is disabled, enabled or added) the plan is
+made again from that moment, for the sites no excavator holds, with every robot's own
+estimate of when it is free (`free_at`). A planned task still pending `PATIENCE_S` after its
+planned time is dropped from the plan and goes by the greedy rule, so the plan can delay a
+task but never hold it forever. A live switch to `offline` plans from the moment of the
+switch in the same way.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Set
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from engine.central import FORBIDDEN, optimal_assignment
+from engine.field import NEAR
+from engine.geometry import Point, dist, first_entry, path_length
+from engine.planning import PlanningError
+from engine.schedule import Job, Problem, Schedule, Unit, optimize
+
+if TYPE_CHECKING:
+    from engine.auction_rules import AuctionRecord
+    from engine.context import MissionContext
+    from engine.field import SiteState
+    from engine.robots.base import Robot
+
+PATIENCE_S = 300.0
+"""A planned task not handed out this long after its planned time leaves the plan."""
+WORK = 3_000_000
+"""Search effort: decodes × (minerals × haulers × excavators) stays under this, and under
+`MAX_DECODES` — a count, so the same problem always gets the same schedule."""
+MAX_DECODES = 600
+
+
+@dataclass(slots=True)
+class Entry:
+    """One planned task of one robot."""
+
+    robot: str
+    site: str
+    pos: Point
+    at: float  # planned time: an excavator's first dig, a hauler's transfer
+    k: int = 0  # a hauler's: the k-th transfer at the site
+    state: str = "pending"  # pending | awarded | dropped
+
+
+class OfflineAllocator:
+    """Plans once (and again when the team changes) and awards by the plan."""
+
+    def __init__(self) -> None:
+        self.plans: dict[str, list[Entry]] = {}
+        self.roster: tuple[tuple[str, str], ...] | None = None
+        self.bound: dict[str, Entry] = {}  # auction id → the entry awarded in it
+        self.schedule: Schedule | None = None
+        self.plans_made = 0
+
+    # --- the auctioneer's question ---------------------------------------------------------
+    def rank(
+        self,
+        ctx: MissionContext,
+        rec: AuctionRecord,
+        bids: Mapping[str, float],
+        excluded: Set[str],
+    ) -> list[str]:
+        self._ensure(ctx)
+        entry = self.bound.pop(rec.id, None)
+        if entry is not None and entry.state == "awarded":
+            entry.state = "pending"  # that award was declined or went unanswered
+        site = ctx.field.site_at(rec.location)
+        if site is not None:
+            chosen = self._by_plan(ctx, rec, site.id, excluded)
+            if chosen is not None:
+                return chosen
+        return self._greedy(ctx, rec, excluded)
+
+    def standby(self, ctx: MissionContext, name: str) -> Point | None:
+        """Where an idle robot should wait: the site of its next planned task."""
+        self._ensure(ctx)
+        nxt = self._next(ctx, name)
+        return None if nxt is None else nxt.pos
+
+    # --- executing the plan ----------------------------------------------------------------
+    def _next(self, ctx: MissionContext, name: str) -> Entry | None:
+        now = float(ctx.env.now)
+        for e in self.plans.get(name, ()):
+            if e.state != "pending":
+                continue
+            if now > e.at + PATIENCE_S:
+                e.state = "dropped"
+                continue
+            return e
+        return None
+
+    def _by_plan(
+        self, ctx: MissionContext, rec: AuctionRecord, site: str, excluded: Set[str]
+    ) -> list[str] | None:
+        """The planned robot ([] while it cannot take it yet); None: the plan has no such task."""
+        waiting = False
+        ready: list[tuple[int, float, str, Entry]] = []
+        promised = _promised(ctx, rec)
+        for name in sorted(self.plans):
+            robot = ctx.robots.get(name)
+            if robot is None or robot.capability != rec.task_type:
+                continue
+            nxt = self._next(ctx, name)
+            if any(e.site == site and e.state == "pending" for e in self.plans[name]):
+                waiting = True
+            if nxt is None or nxt.site != site:
+                continue
+            if robot.can_take() and name not in excluded and name not in promised:
+                ready.append((nxt.k, nxt.at, name, nxt))
+        if ready:
+            _, _, name, entry = min(ready)
+            entry.state = "awarded"
+            self.bound[rec.id] = entry
+            return [name]
+        return [] if waiting else None
+
+    def _greedy(self, ctx: MissionContext, rec: AuctionRecord, excluded: Set[str]) -> list[str]:
+        """central-greedy's rule over the open tasks the plan does not cover."""
+        tasks = [
+            a
+            for a in ctx.observer.auctions
+            if a.status == "open" and a.task_type == rec.task_type and not self._covers(ctx, a)
+        ]
+        if rec not in tasks:
+            tasks.append(rec)
+        promised = _promised(ctx, rec)
+        robots = [
+            r
+            for name, r in sorted(ctx.robots.items())
+            if r.capability == rec.task_type and r.can_take() and name not in promised
+        ]
+        if not robots:
+            return []
+        cost = np.full((len(tasks), len(robots)), FORBIDDEN)
+        for j, robot in enumerate(robots):
+            for i, task in enumerate(tasks):
+                if task is rec and robot.name in excluded:
+                    continue
+                cost[i, j] = _travel_s(ctx, robot, task.location)
+        chosen = optimal_assignment(cost).get(tasks.index(rec))
+        return [] if chosen is None else [robots[chosen].name]
+
+    def _covers(self, ctx: MissionContext, rec: AuctionRecord) -> bool:
+        site = ctx.field.site_at(rec.location)
+        if site is None:
+            return False
+        robots = (n for n in self.plans if ctx.robots[n].capability == rec.task_type)
+        return any(e.site == site.id and e.state == "pending" for n in robots for e in self.plans[n])
+
+    # --- planning --------------------------------------------------------------------------
+    def _ensure(self, ctx: MissionContext) -> None:
+        roster = tuple(
+            (r.name, r.rtype)
+            for r in sorted(ctx.robots.values(), key=lambda r: r.name)
+            if r.rtype in ("excavator", "hauler") and r.participating
+        )
+        if roster != self.roster:
+            self.roster = roster
+            self._plan(ctx, "start" if self.plans_made == 0 else "team changed")
+
+    def _plan(self, ctx: MissionContext, reason: str) -> None:
+        problem = build_problem(ctx)
+        cells = len(problem.jobs) and sum(j.minerals for j in problem.jobs)
+        size = max(1, cells * len(problem.haulers) * max(1, min(len(problem.excavators), 8)))
+        budget = max(1, min(MAX_DECODES, WORK // size))
+        sched = optimize(problem, budget)
+        self.schedule = sched
+        self.plans_made += 1
+        self.bound.clear()
+        sites = {j.key: j.pos for j in problem.jobs}
+        plans: dict[str, list[Entry]] = {}
+        for name, digs in sched.digs.items():
+            plans[name] = [Entry(name, d.job, sites[d.job], d.start) for d in digs]
+        for name, hauls in sched.hauls.items():
+            plans[name] = [Entry(name, h.job, sites[h.job], h.transfer, h.k) for h in hauls]
+        self.plans = plans
+        ctx.observer.emit(
+            "offline_planned",
+            reason=reason,
+            sites=len(problem.jobs),
+            minerals=sum(j.minerals for j in problem.jobs),
+            makespan_s=sched.makespan if math.isfinite(sched.makespan) else None,
+            decodes=sched.evaluations,
+        )
+
+
+def build_problem(ctx: MissionContext) -> Problem:
+    """The work left, as the schedule sees it: sites no live excavator holds (found or not),
+    and every participating excavator and hauler at the time and place it will be free."""
+    now = float(ctx.env.now)
+    cfg = ctx.scenario
+    found = predict_found(ctx)
+    latest = max([now, *found.values()])
+    held = [
+        a.location
+        for r in ctx.robots.values()
+        if r.rtype == "excavator" and r.alive
+        for a in [*r.tasks_held(), *([r.reserved] if r.reserved is not None else [])]
+    ]
+    jobs = []
+    for s in ctx.field.sites:
+        if s.remaining <= 0 or (s.worker is not None and ctx.robots[s.worker].alive):
+            continue
+        if any(dist(p, (s.x, s.y)) <= NEAR for p in held):
+            continue
+        seen = s.found_at if s.found_at is not None else found.get(s.id, latest)
+        jobs.append(Job(s.id, (s.x, s.y), s.remaining, max(now, seen) + cfg.protocol.bid_window_s))
+
+    def unit(r: Robot) -> Unit:
+        wait, pos = r.free_at()
+        return Unit(r.name, pos, now + wait)
+
+    team = sorted((r for r in ctx.robots.values() if r.participating), key=lambda r: r.name)
+    def leg(a: Point, b: Point) -> float:
+        return sum(dist(p, q) for p, q in _legs(ctx, a, b))
+
+    return Problem(
+        plant=ctx.world.plant,
+        jobs=tuple(jobs),
+        excavators=tuple(unit(r) for r in team if r.rtype == "excavator"),
+        haulers=tuple(unit(r) for r in team if r.rtype == "hauler"),
+        v_excavator=cfg.speeds.excavator,
+        v_hauler=cfg.speeds.hauler,
+        dig_s=cfg.timing.dig_s,
+        transfer_s=cfg.timing.transfer_s,
+        unload_s=cfg.timing.unload_s,
+        dist=leg,
+    )
+
+
+def predict_found(ctx: MissionContext) -> dict[str, float]:
+    """When each site not yet found will be, by driving every working scout's remaining route
+    on paper, along the paths the run's planner gives: the fixed spiral of docs/spec.md §7."""
+    now, r = float(ctx.env.now), ctx.scenario.scan_radius
+    wps = ctx.world.grid.waypoints
+    out: dict[str, float] = {}
+    for scout in sorted(ctx.robots.values(), key=lambda r: r.name):
+        if scout.rtype != "scout" or not scout.participating:
+            continue
+        route: list[int] = getattr(scout, "route", [])
+        cursor: int = getattr(scout, "cursor", 0)
+        here = scout.position()[0]
+        points: list[Point] = [here]
+        if scout.motion is not None:
+            points += scout.remaining_route()[1:]
+            cursor += 1
+        points += [p for c in route[cursor:] if (p := wps[c]) is not None]
+        t = now
+        for a0, b0 in zip(points, points[1:], strict=False):
+            for a, b in _legs(ctx, a0, b0):
+                secs = dist(a, b) / scout.speed
+                if secs <= 0.0:
+                    continue
+                for site in ctx.field.sites_near(a, b, r):
+                    if site.found_at is not None:
+                        continue
+                    u = first_entry(a, b, (site.x, site.y), r)
+                    if u is not None:
+                        seen = t + u * secs
+                        if seen < out.get(site.id, math.inf):
+                            out[site.id] = seen
+                t += secs
+    return out
+
+
+def _legs(ctx: MissionContext, a: Point, b: Point) -> list[tuple[Point, Point]]:
+    """The segments of the path a scout drives from a to b (the run's own planner: its per-run
+    cache then gives the scout this very path when it gets there)."""
+    if ctx.world.index.segment_free(a, b):
+        return [(a, b)]
+    try:
+        path = ctx.planner.plan(a, b)
+    except PlanningError:
+        return [(a, b)]
+    return list(zip(path, path[1:], strict=False))
+
+
+def _promised(ctx: MissionContext, rec: AuctionRecord) -> set[str]:
+    """Robots with an award pending in another open auction."""
+    return {
+        a.awards[-1].winner
+        for a in ctx.observer.auctions
+        if a is not rec and a.status == "open" and a.awards and a.awards[-1].outcome == "pending"
+    }
+
+
+def _travel_s(ctx: MissionContext, robot: Robot, goal: Point) -> float:
+    try:
+        length = path_length(ctx.planner.plan(robot.position()[0], goal))
+    except PlanningError:
+        return FORBIDDEN
+    return length / robot.speed if math.isfinite(length) else FORBIDDEN
+
+
+def site_state(ctx: MissionContext, site_id: str) -> SiteState | None:
+    return next((s for s in ctx.field.sites if s.id == site_id), None)
