@@ -25,6 +25,7 @@ switch in the same way.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Set
 from dataclasses import dataclass
@@ -41,15 +42,16 @@ from engine.schedule import Job, Problem, Schedule, Unit, optimize
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord
     from engine.context import MissionContext
-    from engine.field import SiteState
     from engine.robots.base import Robot
 
 PATIENCE_S = 300.0
 """A planned task not handed out this long after its planned time leaves the plan."""
 WORK = 3_000_000
 """Search effort: decodes × (minerals × haulers × excavators) stays under this, and under
-`MAX_DECODES` — a count, so the same problem always gets the same schedule."""
-MAX_DECODES = 600
+`MAX_DECODES` (`REPAIR_DECODES` for a plan made again mid-mission) — counts, so the same
+problem always gets the same schedule."""
+MAX_DECODES = 1000
+REPAIR_DECODES = 100
 
 
 @dataclass(slots=True)
@@ -167,7 +169,9 @@ class OfflineAllocator:
         if site is None:
             return False
         robots = (n for n in self.plans if ctx.robots[n].capability == rec.task_type)
-        return any(e.site == site.id and e.state == "pending" for n in robots for e in self.plans[n])
+        return any(
+            e.site == site.id and e.state == "pending" for n in robots for e in self.plans[n]
+        )
 
     # --- planning --------------------------------------------------------------------------
     def _ensure(self, ctx: MissionContext) -> None:
@@ -184,7 +188,8 @@ class OfflineAllocator:
         problem = build_problem(ctx)
         cells = len(problem.jobs) and sum(j.minerals for j in problem.jobs)
         size = max(1, cells * len(problem.haulers) * max(1, min(len(problem.excavators), 8)))
-        budget = max(1, min(MAX_DECODES, WORK // size))
+        most = MAX_DECODES if self.plans_made == 0 else REPAIR_DECODES
+        budget = max(1, min(most, WORK // size))
         sched = optimize(problem, budget)
         self.schedule = sched
         self.plans_made += 1
@@ -213,12 +218,12 @@ def build_problem(ctx: MissionContext) -> Problem:
     cfg = ctx.scenario
     found = predict_found(ctx)
     latest = max([now, *found.values()])
-    held = [
-        a.location
-        for r in ctx.robots.values()
-        if r.rtype == "excavator" and r.alive
-        for a in [*r.tasks_held(), *([r.reserved] if r.reserved is not None else [])]
-    ]
+    held: list[Point] = []
+    for r in ctx.robots.values():
+        if r.rtype == "excavator" and r.alive:
+            held += [a.location for a in r.tasks_held()]
+            if r.reserved is not None:
+                held.append(r.reserved.location)
     jobs = []
     for s in ctx.field.sites:
         if s.remaining <= 0 or (s.worker is not None and ctx.robots[s.worker].alive):
@@ -233,6 +238,7 @@ def build_problem(ctx: MissionContext) -> Problem:
         return Unit(r.name, pos, now + wait)
 
     team = sorted((r for r in ctx.robots.values() if r.participating), key=lambda r: r.name)
+
     def leg(a: Point, b: Point) -> float:
         return sum(dist(p, q) for p, q in _legs(ctx, a, b))
 
@@ -268,7 +274,7 @@ def predict_found(ctx: MissionContext) -> dict[str, float]:
             cursor += 1
         points += [p for c in route[cursor:] if (p := wps[c]) is not None]
         t = now
-        for a0, b0 in zip(points, points[1:], strict=False):
+        for a0, b0 in itertools.pairwise(points):
             for a, b in _legs(ctx, a0, b0):
                 secs = dist(a, b) / scout.speed
                 if secs <= 0.0:
@@ -294,7 +300,7 @@ def _legs(ctx: MissionContext, a: Point, b: Point) -> list[tuple[Point, Point]]:
         path = ctx.planner.plan(a, b)
     except PlanningError:
         return [(a, b)]
-    return list(zip(path, path[1:], strict=False))
+    return list(itertools.pairwise(path))
 
 
 def _promised(ctx: MissionContext, rec: AuctionRecord) -> set[str]:
@@ -312,7 +318,3 @@ def _travel_s(ctx: MissionContext, robot: Robot, goal: Point) -> float:
     except PlanningError:
         return FORBIDDEN
     return length / robot.speed if math.isfinite(length) else FORBIDDEN
-
-
-def site_state(ctx: MissionContext, site_id: str) -> SiteState | None:
-    return next((s for s in ctx.field.sites if s.id == site_id), None)

@@ -27,6 +27,7 @@ CP-SAT.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -116,7 +117,9 @@ class _Matrix:
 
     def __init__(self, p: Problem) -> None:
         jobs = p.jobs
-        self.exc_start = [[p.dist(e.pos, j.pos) / p.v_excavator for j in jobs] for e in p.excavators]
+        self.exc_start = [
+            [p.dist(e.pos, j.pos) / p.v_excavator for j in jobs] for e in p.excavators
+        ]
         self.job_job = [[p.dist(a.pos, b.pos) / p.v_excavator for b in jobs] for a in jobs]
         self.start_to = [[p.dist(h.pos, j.pos) / p.v_hauler for h in p.haulers] for j in jobs]
         self.out = [p.dist(p.plant, j.pos) / p.v_hauler for j in jobs]
@@ -137,6 +140,8 @@ def decode(
     n_h = len(p.haulers)
     h_free = [h.free_at for h in p.haulers]
     h_home = [True] * n_h  # still at its start position (else at the plant)
+    home = list(range(n_h))
+    away: list[tuple[float, int]] = []  # (free at, hauler) of those that went to the plant
     h_seq: list[list[Haul]] = [[] for _ in range(n_h)]
     # per excavator: index into its sequence, the job it works, its next fill time
     cursor = [0] * len(seqs)
@@ -169,10 +174,17 @@ def decode(
             fill = nxt_fill[j]
             bonus = prio[j] + cycle * left[j]
             out_j = mat.out[j]
+            if away:
+                # from the plant: the latest free hauler still there by the fill, else the first
+                at = bisect.bisect_right(away, (fill - out_j, math.inf))
+                free, k = away[at - 1] if at else away[0]
+                sc = (fill if at else free + out_j) - bonus
+                if sc < best_sc - 1e-9 or (sc <= best_sc + 1e-9 and free > best_free):
+                    best_sc, best_free, ai, h = sc, free, i, k
             from_start = mat.start_to[j]
-            for k in range(n_h):
+            for k in home:
                 free = h_free[k]
-                arrive = free + (from_start[k] if h_home[k] else out_j)
+                arrive = free + from_start[k]
                 sc = (arrive if arrive > fill else fill) - bonus
                 if sc < best_sc - 1e-9 or (sc <= best_sc + 1e-9 and free > best_free):
                     best_sc, best_free, ai, h = sc, free, i, k
@@ -184,9 +196,24 @@ def decode(
         delivered = done + mat.back[j]
         if detail:
             h_seq[h].append(
-                Haul(jobs[j].key, k_of[j], p.haulers[h].name, h_free[h], arrive, fill, start, delivered)
+                Haul(
+                    jobs[j].key,
+                    k_of[j],
+                    p.haulers[h].name,
+                    h_free[h],
+                    arrive,
+                    fill,
+                    start,
+                    delivered,
+                )
             )
-        h_free[h], h_home[h] = delivered, False
+        if h_home[h]:
+            h_home[h] = False
+            home.remove(h)
+        else:
+            del away[bisect.bisect_left(away, (h_free[h], h))]
+        h_free[h] = delivered
+        bisect.insort(away, (delivered, h))
         total += delivered
         makespan = max(makespan, delivered)
         k_of[j] += 1
@@ -261,11 +288,9 @@ def _moves(seqs: list[list[int]]) -> list[list[list[int]]]:
 
 
 def optimize(p: Problem, budget: int) -> Schedule:
-    """Construction, then first-improvement local search for at most `budget` decodes."""
+    """Construction, then local search for at most `budget` decodes: first improvement over
+    relocations, swaps and site priorities, down to a local optimum."""
     mat = _Matrix(p)
-    seqs = construct(p, mat)
-    prio = [0.0] * len(p.jobs)
-    tail = 0.0
     used = 0
 
     def cost(s: list[list[int]], pr: list[float], tw: float) -> tuple[float, float]:
@@ -273,32 +298,41 @@ def optimize(p: Problem, budget: int) -> Schedule:
         used += 1
         return decode(p, s, pr, mat, tw, detail=False).cost
 
+    def descend(
+        seqs: list[list[int]], prio: list[float], tail: float, best: tuple[float, float]
+    ) -> tuple[list[list[int]], list[float], tuple[float, float]]:
+        improved = True
+        while improved and used < budget:
+            improved = False
+            for cand in _moves(seqs):
+                if used >= budget:
+                    break
+                c = cost(cand, prio, tail)
+                if c < best:
+                    seqs, best, improved = cand, c, True
+                    break
+            if improved:
+                continue
+            for j in range(len(p.jobs)):
+                for step in PRIORITY_STEPS:
+                    if used >= budget:
+                        break
+                    trial = list(prio)
+                    trial[j] += step
+                    c = cost(seqs, trial, tail)
+                    if c < best:
+                        prio, best, improved = trial, c, True
+        return seqs, prio, best
+
+    seqs = construct(p, mat)
+    prio = [0.0] * len(p.jobs)
+    tail = 0.0
     best = cost(seqs, prio, tail)
     for tw in TAIL_WEIGHTS:
         c = cost(seqs, prio, tw)
         if c < best:
             best, tail = c, tw
-    improved = True
-    while improved and used < budget:
-        improved = False
-        for cand in _moves(seqs):
-            if used >= budget:
-                break
-            c = cost(cand, prio, tail)
-            if c < best:
-                seqs, best, improved = cand, c, True
-                break
-        if improved:
-            continue
-        for j in range(len(p.jobs)):
-            for step in PRIORITY_STEPS:
-                if used >= budget:
-                    break
-                trial = list(prio)
-                trial[j] += step
-                c = cost(seqs, trial, tail)
-                if c < best:
-                    prio, best, improved = trial, c, True
+    seqs, prio, best = descend(seqs, prio, tail, best)
     out = decode(p, seqs, prio, mat, tail)
     out.evaluations = used + 1
     return out
