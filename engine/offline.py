@@ -36,7 +36,7 @@ import numpy as np
 from engine.central import FORBIDDEN, optimal_assignment
 from engine.field import NEAR
 from engine.geometry import Point, dist, first_entry, path_length
-from engine.planning import PlanningError
+from engine.planning import Path, PathPlanner, PlanningError
 from engine.schedule import Job, Problem, Schedule, Unit, optimize
 
 if TYPE_CHECKING:
@@ -64,6 +64,7 @@ class Entry:
     at: float  # planned time: an excavator's first dig, a hauler's transfer
     k: int = 0  # a hauler's: the k-th transfer at the site
     state: str = "pending"  # pending | awarded | dropped
+    auction: str | None = None  # the auction it was awarded in
 
 
 class OfflineAllocator:
@@ -98,6 +99,10 @@ class OfflineAllocator:
     def standby(self, ctx: MissionContext, name: str) -> Point | None:
         """Where an idle robot should wait: the site of its next planned task."""
         self._ensure(ctx)
+        for e in self.plans.get(name, ()):
+            rec = ctx.observer.auctions_by_id.get(e.auction or "")
+            if e.state == "awarded" and rec is not None and rec.status == "open":
+                return e.pos  # awarded, not confirmed yet: stay for it
         nxt = self._next(ctx, name)
         return None if nxt is None else nxt.pos
 
@@ -119,6 +124,9 @@ class OfflineAllocator:
         """The planned robot ([] while it cannot take it yet); None: the plan has no such task."""
         waiting = False
         ready: list[tuple[int, float, str, Entry]] = []
+        # one hauler at a time comes for a pile's next bucket, in the planned order: at a pile
+        # the first hauler to stand by gets the bucket, so a later one must not arrive first
+        gated = rec.task_type == "transport" and _pickup_pending(ctx, rec)
         promised = _promised(ctx, rec)
         for name in sorted(self.plans):
             robot = ctx.robots.get(name)
@@ -129,11 +137,13 @@ class OfflineAllocator:
                 waiting = True
             if nxt is None or nxt.site != site:
                 continue
+            if gated:
+                continue
             if robot.can_take() and name not in excluded and name not in promised:
                 ready.append((nxt.k, nxt.at, name, nxt))
         if ready:
             _, _, name, entry = min(ready)
-            entry.state = "awarded"
+            entry.state, entry.auction = "awarded", rec.id
             self.bound[rec.id] = entry
             return [name]
         return [] if waiting else None
@@ -175,6 +185,8 @@ class OfflineAllocator:
 
     # --- planning --------------------------------------------------------------------------
     def _ensure(self, ctx: MissionContext) -> None:
+        if not isinstance(ctx.planner, SnappingPlanner):
+            ctx.planner = SnappingPlanner(ctx.planner, ctx)
         roster = tuple(
             (r.name, r.rtype)
             for r in sorted(ctx.robots.values(), key=lambda r: r.name)
@@ -303,6 +315,35 @@ def _legs(ctx: MissionContext, a: Point, b: Point) -> list[tuple[Point, Point]]:
     return list(itertools.pairwise(path))
 
 
+def _pickup_pending(ctx: MissionContext, rec: AuctionRecord) -> bool:
+    """Is a hauler already coming for a bucket at this auction's place (awarded a transport
+    there, or holding one, and not loaded yet)?"""
+    here = rec.location
+    for a in ctx.observer.auctions:
+        if (
+            a is not rec
+            and a.status == "open"
+            and a.task_type == "transport"
+            and a.awards
+            and a.awards[-1].outcome == "pending"
+            and dist(a.location, here) <= NEAR
+        ):
+            return True
+    for r in ctx.robots.values():
+        if r.rtype != "hauler" or not r.alive:
+            continue
+        if r.reserved is not None and _at(r.reserved.task_type, r.reserved.location, here):
+            return True
+        for t in r.tasks_held():
+            if _at(t.task_type, t.location, here) and not (t is r.current and r.load()):
+                return True  # (a loaded one is on its way to the plant)
+    return False
+
+
+def _at(task_type: str, location: Point, here: Point) -> bool:
+    return task_type == "transport" and dist(location, here) <= NEAR
+
+
 def _promised(ctx: MissionContext, rec: AuctionRecord) -> set[str]:
     """Robots with an award pending in another open auction."""
     return {
@@ -318,3 +359,50 @@ def _travel_s(ctx: MissionContext, robot: Robot, goal: Point) -> float:
     except PlanningError:
         return FORBIDDEN
     return length / robot.speed if math.isfinite(length) else FORBIDDEN
+
+
+SNAP = 1e-6
+"""Two query ends this close (metres) are the same point for `SnappingPlanner`."""
+
+
+class SnappingPlanner:
+    """The run's planner, remembering one path per crater-blocked leg while `offline` rules.
+
+    A robot that drove to a point stands there only up to rounding (a few ulps off), and the
+    run's planner caches paths by the exact query, so the same leg driven twice would get a
+    fresh random RRT-Connect path each time — and the plan's estimate of it (one such path)
+    would be a coin toss. Here a query whose ends lie within `SNAP` of a remembered leg's gets
+    that leg's path, its ends moved onto the query's (if those short end pieces are clear):
+    the plan's legs are the legs driven. Straight legs are unchanged (the planner returns the
+    segment), and under any other policy every query goes straight to the run's planner.
+    """
+
+    def __init__(self, inner: PathPlanner, ctx: MissionContext) -> None:
+        self.inner = inner
+        self.stats = inner.stats
+        self._ctx = ctx
+        self._legs: dict[tuple[tuple[int, int], tuple[int, int]], Path] = {}
+
+    def plan(self, start: Point, goal: Point) -> Path:
+        ctx = self._ctx
+        index = ctx.world.index
+        if ctx.policy.name != "offline" or index.segment_free(start, goal):
+            return self.inner.plan(start, goal)
+        key = (_snap(start), _snap(goal))
+        known = self._legs.get(key)
+        if known is not None and len(known) > 2:
+            moved = (start, *known[1:-1], goal)
+            if index.segment_free(start, moved[1]) and index.segment_free(moved[-2], goal):
+                self.stats.queries += 1
+                self.stats.cached += 1
+                return moved
+        path = self.inner.plan(start, goal)
+        self._legs.setdefault(key, path)
+        return path
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def _snap(p: Point) -> tuple[int, int]:
+    return round(p[0] / SNAP), round(p[1] / SNAP)
