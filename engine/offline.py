@@ -25,7 +25,6 @@ switch in the same way.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Mapping, Set
 from dataclasses import dataclass
@@ -35,8 +34,9 @@ import numpy as np
 
 from engine.central import FORBIDDEN, optimal_assignment
 from engine.field import NEAR
-from engine.geometry import Point, dist, first_entry, path_length
-from engine.planning import Path, PathPlanner, PlanningError
+from engine.foresight import SnappingPlanner, legs, predict_found
+from engine.geometry import Point, dist, path_length
+from engine.planning import PlanningError
 from engine.schedule import Job, Problem, Schedule, Unit, optimize
 
 if TYPE_CHECKING:
@@ -198,8 +198,8 @@ class OfflineAllocator:
 
     def _plan(self, ctx: MissionContext, reason: str) -> None:
         problem = build_problem(ctx)
-        cells = len(problem.jobs) and sum(j.minerals for j in problem.jobs)
-        size = max(1, cells * len(problem.haulers) * max(1, min(len(problem.excavators), 8)))
+        minerals = sum(j.minerals for j in problem.jobs)
+        size = max(1, minerals * len(problem.haulers) * max(1, min(len(problem.excavators), 8)))
         most = MAX_DECODES if self.plans_made == 0 else REPAIR_DECODES
         budget = max(1, min(most, WORK // size))
         sched = optimize(problem, budget)
@@ -252,7 +252,7 @@ def build_problem(ctx: MissionContext) -> Problem:
     team = sorted((r for r in ctx.robots.values() if r.participating), key=lambda r: r.name)
 
     def leg(a: Point, b: Point) -> float:
-        return sum(dist(p, q) for p, q in _legs(ctx, a, b))
+        return sum(dist(p, q) for p, q in legs(ctx, a, b))
 
     return Problem(
         plant=ctx.world.plant,
@@ -266,53 +266,6 @@ def build_problem(ctx: MissionContext) -> Problem:
         unload_s=cfg.timing.unload_s,
         dist=leg,
     )
-
-
-def predict_found(ctx: MissionContext) -> dict[str, float]:
-    """When each site not yet found will be, by driving every working scout's remaining route
-    on paper, along the paths the run's planner gives: the fixed spiral of docs/spec.md §7."""
-    now, r = float(ctx.env.now), ctx.scenario.scan_radius
-    wps = ctx.world.grid.waypoints
-    out: dict[str, float] = {}
-    for scout in sorted(ctx.robots.values(), key=lambda r: r.name):
-        if scout.rtype != "scout" or not scout.participating:
-            continue
-        route: list[int] = getattr(scout, "route", [])
-        cursor: int = getattr(scout, "cursor", 0)
-        here = scout.position()[0]
-        points: list[Point] = [here]
-        if scout.motion is not None:
-            points += scout.remaining_route()[1:]
-            cursor += 1
-        points += [p for c in route[cursor:] if (p := wps[c]) is not None]
-        t = now
-        for a0, b0 in itertools.pairwise(points):
-            for a, b in _legs(ctx, a0, b0):
-                secs = dist(a, b) / scout.speed
-                if secs <= 0.0:
-                    continue
-                for site in ctx.field.sites_near(a, b, r):
-                    if site.found_at is not None:
-                        continue
-                    u = first_entry(a, b, (site.x, site.y), r)
-                    if u is not None:
-                        seen = t + u * secs
-                        if seen < out.get(site.id, math.inf):
-                            out[site.id] = seen
-                t += secs
-    return out
-
-
-def _legs(ctx: MissionContext, a: Point, b: Point) -> list[tuple[Point, Point]]:
-    """The segments of the path a scout drives from a to b (the run's own planner: its per-run
-    cache then gives the scout this very path when it gets there)."""
-    if ctx.world.index.segment_free(a, b):
-        return [(a, b)]
-    try:
-        path = ctx.planner.plan(a, b)
-    except PlanningError:
-        return [(a, b)]
-    return list(itertools.pairwise(path))
 
 
 def _pickup_pending(ctx: MissionContext, rec: AuctionRecord) -> bool:
@@ -359,50 +312,3 @@ def _travel_s(ctx: MissionContext, robot: Robot, goal: Point) -> float:
     except PlanningError:
         return FORBIDDEN
     return length / robot.speed if math.isfinite(length) else FORBIDDEN
-
-
-SNAP = 1e-6
-"""Two query ends this close (metres) are the same point for `SnappingPlanner`."""
-
-
-class SnappingPlanner:
-    """The run's planner, remembering one path per crater-blocked leg while `offline` rules.
-
-    A robot that drove to a point stands there only up to rounding (a few ulps off), and the
-    run's planner caches paths by the exact query, so the same leg driven twice would get a
-    fresh random RRT-Connect path each time — and the plan's estimate of it (one such path)
-    would be a coin toss. Here a query whose ends lie within `SNAP` of a remembered leg's gets
-    that leg's path, its ends moved onto the query's (if those short end pieces are clear):
-    the plan's legs are the legs driven. Straight legs are unchanged (the planner returns the
-    segment), and under any other policy every query goes straight to the run's planner.
-    """
-
-    def __init__(self, inner: PathPlanner, ctx: MissionContext) -> None:
-        self.inner = inner
-        self.stats = inner.stats
-        self._ctx = ctx
-        self._legs: dict[tuple[tuple[int, int], tuple[int, int]], Path] = {}
-
-    def plan(self, start: Point, goal: Point) -> Path:
-        ctx = self._ctx
-        index = ctx.world.index
-        if ctx.policy.name != "offline" or index.segment_free(start, goal):
-            return self.inner.plan(start, goal)
-        key = (_snap(start), _snap(goal))
-        known = self._legs.get(key)
-        if known is not None and len(known) > 2:
-            moved = (start, *known[1:-1], goal)
-            if index.segment_free(start, moved[1]) and index.segment_free(moved[-2], goal):
-                self.stats.queries += 1
-                self.stats.cached += 1
-                return moved
-        path = self.inner.plan(start, goal)
-        self._legs.setdefault(key, path)
-        return path
-
-    def close(self) -> None:
-        self.inner.close()
-
-
-def _snap(p: Point) -> tuple[int, int]:
-    return round(p[0] / SNAP), round(p[1] / SNAP)
