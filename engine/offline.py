@@ -52,6 +52,11 @@ WORK = 3_000_000
 problem always gets the same schedule."""
 MAX_DECODES = 1000
 REPAIR_DECODES = 100
+EXACT_SITES = 30
+"""Up to this many sites every leg the schedule weighs is measured along the run planner's path;
+beyond, a crater-blocked leg not to or from the plant is estimated at `DETOUR` × the straight
+line (at scale 10 the ~20,000 legs would otherwise cost ~20 s of path planning)."""
+DETOUR = 1.2
 
 
 @dataclass(slots=True)
@@ -62,6 +67,7 @@ class Entry:
     site: str
     pos: Point
     at: float  # planned time: an excavator's first dig, a hauler's transfer
+    task: str  # excavate | transport
     k: int = 0  # a hauler's: the k-th transfer at the site
     state: str = "pending"  # pending | awarded | dropped
     auction: str | None = None  # the auction it was awarded in
@@ -74,6 +80,7 @@ class OfflineAllocator:
         self.plans: dict[str, list[Entry]] = {}
         self.roster: tuple[tuple[str, str], ...] | None = None
         self.bound: dict[str, Entry] = {}  # auction id → the entry awarded in it
+        self.pending: dict[tuple[str, str], int] = {}  # (site, task type) → pending entries
         self.schedule: Schedule | None = None
         self.plans_made = 0
 
@@ -88,7 +95,7 @@ class OfflineAllocator:
         self._ensure(ctx)
         entry = self.bound.pop(rec.id, None)
         if entry is not None and entry.state == "awarded":
-            entry.state = "pending"  # that award was declined or went unanswered
+            self._set(entry, "pending")  # that award was declined or went unanswered
         site = ctx.field.site_at(rec.location)
         if site is not None:
             chosen = self._by_plan(ctx, rec, site.id, excluded)
@@ -113,7 +120,7 @@ class OfflineAllocator:
             if e.state != "pending":
                 continue
             if now > e.at + PATIENCE_S:
-                e.state = "dropped"
+                self._set(e, "dropped")
                 continue
             return e
         return None
@@ -122,7 +129,6 @@ class OfflineAllocator:
         self, ctx: MissionContext, rec: AuctionRecord, site: str, excluded: Set[str]
     ) -> list[str] | None:
         """The planned robot ([] while it cannot take it yet); None: the plan has no such task."""
-        waiting = False
         ready: list[tuple[int, float, str, Entry]] = []
         # one hauler at a time comes for a pile's next bucket, in the planned order: at a pile
         # the first hauler to stand by gets the bucket, so a later one must not arrive first
@@ -133,8 +139,6 @@ class OfflineAllocator:
             if robot is None or robot.capability != rec.task_type:
                 continue
             nxt = self._next(ctx, name)
-            if any(e.site == site and e.state == "pending" for e in self.plans[name]):
-                waiting = True
             if nxt is None or nxt.site != site:
                 continue
             if gated:
@@ -143,10 +147,11 @@ class OfflineAllocator:
                 ready.append((nxt.k, nxt.at, name, nxt))
         if ready:
             _, _, name, entry = min(ready)
-            entry.state, entry.auction = "awarded", rec.id
+            self._set(entry, "awarded")
+            entry.auction = rec.id
             self.bound[rec.id] = entry
             return [name]
-        return [] if waiting else None
+        return [] if self.pending.get((site, rec.task_type), 0) else None
 
     def _greedy(self, ctx: MissionContext, rec: AuctionRecord, excluded: Set[str]) -> list[str]:
         """central-greedy's rule over the open tasks the plan does not cover."""
@@ -176,12 +181,22 @@ class OfflineAllocator:
 
     def _covers(self, ctx: MissionContext, rec: AuctionRecord) -> bool:
         site = ctx.field.site_at(rec.location)
-        if site is None:
-            return False
-        robots = (n for n in self.plans if ctx.robots[n].capability == rec.task_type)
-        return any(
-            e.site == site.id and e.state == "pending" for n in robots for e in self.plans[n]
-        )
+        return site is not None and self.pending.get((site.id, rec.task_type), 0) > 0
+
+    def _set(self, e: Entry, state: str) -> None:
+        key = (e.site, e.task)
+        self.pending[key] = self.pending.get(key, 0) + (state == "pending") - (e.state == "pending")
+        e.state = state
+
+    def invites(self, ctx: MissionContext, name: str, site_pos: Point, task_type: str) -> bool:
+        """Should this robot bid in an auction for this task? Only the robot whose next planned
+        task it is, or everyone when the plan does not cover it (bids decide nothing here;
+        they keep the records like the other policies' and wake an auction that waits)."""
+        site = ctx.field.site_at(site_pos)
+        if site is None or not self.pending.get((site.id, task_type), 0):
+            return True
+        nxt = self._next(ctx, name)
+        return nxt is not None and nxt.site == site.id
 
     # --- planning --------------------------------------------------------------------------
     def _ensure(self, ctx: MissionContext) -> None:
@@ -209,10 +224,16 @@ class OfflineAllocator:
         sites = {j.key: j.pos for j in problem.jobs}
         plans: dict[str, list[Entry]] = {}
         for name, digs in sched.digs.items():
-            plans[name] = [Entry(name, d.job, sites[d.job], d.start) for d in digs]
+            plans[name] = [Entry(name, d.job, sites[d.job], d.start, "excavate") for d in digs]
         for name, hauls in sched.hauls.items():
-            plans[name] = [Entry(name, h.job, sites[h.job], h.transfer, h.k) for h in hauls]
+            plans[name] = [
+                Entry(name, h.job, sites[h.job], h.transfer, "transport", h.k) for h in hauls
+            ]
         self.plans = plans
+        self.pending = {}
+        for entries in plans.values():
+            for e in entries:
+                self.pending[(e.site, e.task)] = self.pending.get((e.site, e.task), 0) + 1
         ctx.observer.emit(
             "offline_planned",
             reason=reason,
@@ -251,8 +272,13 @@ def build_problem(ctx: MissionContext) -> Problem:
 
     team = sorted((r for r in ctx.robots.values() if r.participating), key=lambda r: r.name)
 
+    exact = len(jobs) <= EXACT_SITES
+    plant = ctx.world.plant
+
     def leg(a: Point, b: Point) -> float:
-        return sum(dist(p, q) for p, q in legs(ctx, a, b))
+        if exact or plant in (a, b) or ctx.world.index.segment_free(a, b):
+            return sum(dist(p, q) for p, q in legs(ctx, a, b))
+        return dist(a, b) * DETOUR
 
     return Problem(
         plant=ctx.world.plant,

@@ -340,7 +340,12 @@ class Offline(EarlyTransports):
         self._oracle: OfflineAllocator | None = None
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
-        return list(auctions)
+        """The robot's own next planned task, and any task the plan does not cover."""
+        name, ctx = getattr(view, "name", None), getattr(view, "ctx", None)
+        if self._oracle is None or name is None or ctx is None:
+            return list(auctions)
+        plan = self._oracle
+        return [a for a in auctions if plan.invites(ctx, name, a.location, a.task_type)]
 
     def queue_limit(self, rtype: str) -> int:
         return 1
