@@ -328,8 +328,8 @@ class Offline(EarlyTransports):
     """The clairvoyant reference (number 6): a schedule of every site and mineral, planned with
     perfect information from t = 0 and carried out through the same auctions
     (engine/offline.py, engine/schedule.py). Not a design: no robot could know what it reads.
-    It uses Policy 4's transport lead and one-task queues; robots bid in every auction so the
-    records look like the others', but the plan decides."""
+    It uses Policy 4's transport lead and one-task queues; a robot bids in the auction of its
+    own next planned task (and in any the plan does not cover), but the plan decides."""
 
     number, name = 6, "offline"
     label, colour = "Offline (clairvoyant)", "#d55e00"
