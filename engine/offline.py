@@ -81,6 +81,7 @@ class OfflineAllocator:
         self.roster: tuple[tuple[str, str], ...] | None = None
         self.bound: dict[str, Entry] = {}  # auction id → the entry awarded in it
         self.pending: dict[tuple[str, str], int] = {}  # (site, task type) → pending entries
+        self._sites: dict[Point, str | None] = {}
         self.schedule: Schedule | None = None
         self.plans_made = 0
 
@@ -96,9 +97,9 @@ class OfflineAllocator:
         entry = self.bound.pop(rec.id, None)
         if entry is not None and entry.state == "awarded":
             self._set(entry, "pending")  # that award was declined or went unanswered
-        site = ctx.field.site_at(rec.location)
+        site = self._site(ctx, rec.location)
         if site is not None:
-            chosen = self._by_plan(ctx, rec, site.id, excluded)
+            chosen = self._by_plan(ctx, rec, site, excluded)
             if chosen is not None:
                 return chosen
         return self._greedy(ctx, rec, excluded)
@@ -180,8 +181,8 @@ class OfflineAllocator:
         return [] if chosen is None else [robots[chosen].name]
 
     def _covers(self, ctx: MissionContext, rec: AuctionRecord) -> bool:
-        site = ctx.field.site_at(rec.location)
-        return site is not None and self.pending.get((site.id, rec.task_type), 0) > 0
+        site = self._site(ctx, rec.location)
+        return site is not None and self.pending.get((site, rec.task_type), 0) > 0
 
     def _set(self, e: Entry, state: str) -> None:
         key = (e.site, e.task)
@@ -192,11 +193,18 @@ class OfflineAllocator:
         """Should this robot bid in an auction for this task? Only the robot whose next planned
         task it is, or everyone when the plan does not cover it (bids decide nothing here;
         they keep the records like the other policies' and wake an auction that waits)."""
-        site = ctx.field.site_at(site_pos)
-        if site is None or not self.pending.get((site.id, task_type), 0):
+        site = self._site(ctx, site_pos)
+        if site is None or not self.pending.get((site, task_type), 0):
             return True
         nxt = self._next(ctx, name)
-        return nxt is not None and nxt.site == site.id
+        return nxt is not None and nxt.site == site
+
+    def _site(self, ctx: MissionContext, p: Point) -> str | None:
+        """The site at a task's place (auctions name a site by its exact coordinates)."""
+        if p not in self._sites:
+            site = ctx.field.site_at(p)
+            self._sites[p] = None if site is None else site.id
+        return self._sites[p]
 
     # --- planning --------------------------------------------------------------------------
     def _ensure(self, ctx: MissionContext) -> None:
