@@ -24,6 +24,8 @@ from engine.messages import Location, TaskType
 
 if TYPE_CHECKING:
     from engine.central import Allocator
+    from engine.context import MissionContext
+    from engine.offline import OfflineAllocator
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,6 +101,11 @@ class Policy:
     def allocator(self) -> Allocator | None:
         """An oracle that picks auction winners from global state (the centralized baseline);
         None: the auctioneer ranks the bids (docs/spec.md §6)."""
+        return None
+
+    def standby(self, ctx: MissionContext, robot: str) -> Location | None:
+        """Where a robot with nothing to do should wait (the offline reference's pre-placed
+        robots); None: it waits where it is."""
         return None
 
 
@@ -314,6 +321,47 @@ class RelaxedCoalitions(AnticipatoryCoalitions):
         if view.rtype == "hauler" and view.paired() and view.partner_working():
             return []
         return earliest(auctions)
+
+
+@register_policy
+class Offline(EarlyTransports):
+    """The clairvoyant reference (number 6): a schedule of every site and mineral, planned with
+    perfect information from t = 0 and carried out through the same auctions
+    (engine/offline.py, engine/schedule.py). Not a design: no robot could know what it reads.
+    It uses Policy 4's transport lead and one-task queues; a robot bids in the auction of its
+    own next planned task (and in any the plan does not cover), but the plan decides."""
+
+    number, name = 6, "offline"
+    label, colour = "Offline (clairvoyant)", "#d55e00"
+    description = "reference, not decentralized: a clairvoyant schedule planned from t = 0"
+    decentralized = False
+
+    def __init__(self) -> None:
+        self._oracle: OfflineAllocator | None = None
+
+    def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
+        """The robot's own next planned task, and any task the plan does not cover."""
+        name, ctx = getattr(view, "name", None), getattr(view, "ctx", None)
+        if self._oracle is None or name is None or ctx is None:
+            return list(auctions)
+        plan = self._oracle
+        return [a for a in auctions if plan.invites(ctx, name, a.location, a.task_type)]
+
+    def queue_limit(self, rtype: str) -> int:
+        return 1
+
+    def _planner(self) -> OfflineAllocator:
+        if self._oracle is None:
+            from engine.offline import OfflineAllocator
+
+            self._oracle = OfflineAllocator()
+        return self._oracle
+
+    def allocator(self) -> Allocator | None:
+        return self._planner()
+
+    def standby(self, ctx: MissionContext, robot: str) -> Location | None:
+        return self._planner().standby(ctx, robot)
 
 
 ALIASES = {"central": "central-greedy"}

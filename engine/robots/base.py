@@ -13,6 +13,8 @@ import simpy
 
 from engine.auction_house import AuctionHouse
 from engine.auction_rules import Allocation
+from engine.field import NEAR
+from engine.geometry import dist
 from engine.messages import (
     Ack,
     Announce,
@@ -29,6 +31,7 @@ from engine.messages import (
     Takeover,
     TaskDone,
 )
+from engine.planning import PlanningError
 from engine.policies import OpenAuction
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
@@ -85,9 +88,23 @@ class Robot(Bidder, Recovery):
         yield  # pragma: no cover - makes this a generator
 
     def when_free(self) -> Any:
-        """Nothing to do: wait until something changes."""
+        """Nothing to do: wait until something changes (where the policy says, if it does)."""
+        spot = self.ctx.policy.standby(self.ctx, self.name)
+        if spot is None:
+            self.state = "idle"
+            yield self.wait_for_wake()
+            return
+        if dist(self.pos, spot) > NEAR:
+            self.state = "travelling"
+            try:
+                yield from self.go_to(spot)
+            except PlanningError:
+                pass
+            else:
+                return
+        # standing by: look again now and then, in case the plan changed
         self.state = "idle"
-        yield self.wait_for_wake()
+        yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
 
     def on_revoked(self) -> None:
         """Hook: tidy up after the current task was revoked mid-way."""

@@ -127,3 +127,11 @@ def test_the_exact_planner_is_never_longer_and_a_bad_planner_is_one_line():
     assert figures["exact"]["distance"]["scout"] <= figures["ompl"]["distance"]["scout"]
     bad = regolith("run", "--policy", "4", "--seed", "0", "--planner", "astar")
     assert bad.returncode == 2 and "--planner" in bad.stderr
+
+
+def test_the_offline_reference_runs_from_the_command_line():
+    out = regolith("run", "--policy", "offline", "--seed", "0", "--json")
+    assert out.returncode == 0, out.stderr
+    m = json.loads(out.stdout)
+    assert m["policy"] == "offline" and m["completed"] and m["minerals_delivered"] == 64
+    assert m["lower_bound_s"] <= m["makespan_s"]

@@ -76,6 +76,7 @@ GOLDEN = {
     "nearest": (4778, "224d4b940af14819c252cbf83cae4e710931253cd32c3735dac108f54ad30d54"),
     "lookahead": (4063, "89b6b953f1a379f7b9f0f47aa403cfe4d898c2f2fb5b9d02dd1c26e8de98a8ce"),
     "central-greedy": (4231, "abfab458bb3af929ace82575e8aefc566b8b913c2e2b7697bb1ee906802b4b73"),
+    "offline": (6256, "fe9dd94adf65e638c8a0df1a3f9910eb269dec22dbc02ebf515cc11d8153e915"),
 }
 
 

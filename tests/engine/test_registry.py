@@ -15,7 +15,7 @@ def test_the_table_is_the_registry_in_registration_order_as_plain_data():
     table = policy_table()
     assert [p["name"] for p in table] == list(POLICIES)
     assert {p["number"]: p["name"] for p in table} == POLICY_NAMES
-    assert [p["name"] for p in table if not p["decentralized"]] == ["central-greedy"]
+    assert [p["name"] for p in table if not p["decentralized"]] == ["central-greedy", "offline"]
     assert len({p["colour"] for p in table}) == len(table)  # one colour each, for the charts
     assert all(p["label"] and p["description"] for p in table)
 
