@@ -33,7 +33,7 @@ STATE_ROWS = (
     ("excavator", "waiting", "full bucket, no hauler beside it"),
     ("excavator", "loading", "emptying the bucket into a bin"),
     ("hauler", "idle", "no task"),
-    ("hauler", "travelling", "to a site (or following its partner)"),
+    ("hauler", "travelling", "to a site, or after its partner"),
     ("hauler", "waiting", "at a site for a bucket, the transfer included"),
     ("hauler", "carrying", "to the plant"),
     ("hauler", "unloading", ""),
