@@ -203,22 +203,26 @@ def _finding_verdict(s: Sweep, col: str, claimed: str, sense: str) -> tuple[str,
     others = [p for p in STUDY if p != claimed]
     sign = 1 if sense == "lowest" else -1
     order = sorted(STUDY, key=lambda p: sign * s.stat(col, p))
-    parts, beats, loses = [], 0, 0
+    parts: list[str] = []
+    beats: list[str] = []
+    loses: list[str] = []
     for o in others:
         c = s.pair(col, claimed, o)
         d, p = c["paired_mean_diff"], c["paired_t_p_adj"]
         sig = p is not None and p < s.summary["alpha"]
         if sig and sign * d < 0:
-            beats += 1
+            beats.append(s.short(o))
         if sig and sign * d > 0:
-            loses += 1
+            loses.append(s.short(o))
         parts.append(f"vs {s.short(o)} {d:+,.1f} (p_adj {pval(p)})")
-    if beats == len(others):
+    if len(beats) == len(others):
         verdict = "**confirmed**"
     elif loses:
-        verdict = "**refuted**"
+        verdict = f"**refuted**: {' and '.join(loses)} significantly ahead"
+    elif beats:
+        verdict = f"not confirmed: ahead of {' and '.join(beats)} only"
     else:
-        verdict = "not confirmed (no significant difference)"
+        verdict = "not confirmed: no significant difference"
     rank_text = (" < " if sign > 0 else " > ").join(s.short(p) for p in order)
     means = ", ".join(f"{s.short(p)} {num(s.stat(col, p))}" for p in STUDY)
     return verdict, f"{means}; {rank_text}; {s.short(claimed)} {'; '.join(parts)}"

@@ -54,6 +54,8 @@ class Experiment:
     @property
     def command(self) -> str:
         """The plain `regolith sweep` that runs the same sweep (variants: none does)."""
+        if self.variants:
+            return f"experiments.reproduce: variants {self.policies}, seeds {self.seeds}"
         grid = "".join(f" --grid {g}" for g in self.grid)
         return f"regolith sweep --policies {self.policies} --seeds {self.seeds}{grid}"
 
@@ -151,7 +153,7 @@ def git_commit() -> str | None:
     return out.stdout.strip() or None
 
 
-def write_results(out: Path, walls: dict[str, float], results: Path = RESULTS) -> None:
+def write_results(out: Path, results: Path = RESULTS) -> None:
     """Copy each experiment's kept files to results/NAME and record the build they came from."""
     from experiments.worker import engine_fingerprint
 
@@ -169,8 +171,7 @@ def write_results(out: Path, walls: dict[str, float], results: Path = RESULTS) -
         "note": "engine_build is the hash of engine/*.py the runs were made with (as in every "
         "sweep.json); source is `git describe --dirty` of the tree that wrote these files",
         "experiments": [
-            {"name": e.name, "command": e.command, "wall_s": round(walls.get(e.name, 0.0), 1)}
-            for e in EXPERIMENTS
+            {"name": e.name, "command": e.command, "seeds": e.seeds} for e in EXPERIMENTS
         ],
     }
     (results / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n")
@@ -257,7 +258,14 @@ def main(argv: list[str] | None = None) -> int:
         help="comma-separated experiment names: rerun only these; the docs are checked with "
         "the committed results of the others (not with --write)",
     )
+    ap.add_argument(
+        "--no-run",
+        action="store_true",
+        help="run nothing: render (and check or write) from the finished sweeps in --out",
+    )
     args = ap.parse_args(argv)
+    if args.no_run and args.out is None:
+        ap.error("--no-run needs --out, the folder of finished sweeps")
     chosen = EXPERIMENTS
     if args.only:
         names = [n.strip() for n in args.only.split(",")]
@@ -268,7 +276,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="regolith-reproduce-") as tmp:
         out = args.out or (ROOT / "sweeps" / "reproduce" if args.write else Path(tmp))
-        walls = run_all(out, chosen, workers=args.workers)
+        if not args.no_run:
+            run_all(out, chosen, workers=args.workers)
         for exp in EXPERIMENTS:
             if exp not in chosen:
                 (out / exp.name).mkdir(parents=True, exist_ok=True)
@@ -276,7 +285,7 @@ def main(argv: list[str] | None = None) -> int:
                     shutil.copyfile(RESULTS / exp.name / f, out / exp.name / f)
         blocks = render_blocks(out)
         if args.write:
-            write_results(out, walls)
+            write_results(out)
             copy_figures(out)
             changed = write_docs(ROOT, DOCS, blocks)
             print(f"reproduce: wrote results/, figures and {changed} changed blocks")
