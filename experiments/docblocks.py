@@ -87,7 +87,7 @@ def render_blocks(out: Path) -> dict[str, str]:
 def reference_meta(s: Sweep) -> str:
     st = s.summary
     return (
-        f"Engine build `{s.build}`, reference scenario, seeds {s.seed_text}, "
+        f"Reference scenario, seeds {s.seed_text}, "
         f"{len(s.policies)} policies, {st['runs']} runs, {st['completed_runs']} completed. "
         "Mean ± half-width of the 95% CI over the completed runs of each policy:\n"
     )
@@ -277,9 +277,7 @@ def policies_reference(s: Sweep) -> str:
         ["makespan / per-run lower bound", *[f"{s.stat('makespan_ratio', p):.2f}" for p in pols]],
         ["distance, total (m)", *[num(s.stat("distance_total", p)) for p in pols]],
     ]
-    return f"Engine build `{s.build}`, seeds {s.seed_text}:\n\n" + table(
-        ["", *[s.short(p) for p in pols]], rows
-    )
+    return f"Seeds {s.seed_text}:\n\n" + table(["", *[s.short(p) for p in pols]], rows)
 
 
 def strict_vs_relaxed(s: Sweep) -> str:

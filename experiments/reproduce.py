@@ -239,6 +239,19 @@ def compare_runs(
     return problems
 
 
+def build_note(out: Path, experiments: tuple[Experiment, ...]) -> str:
+    """Which engine builds made the committed results and the fresh run (a different build
+    that reproduces every number is fine: the check is on the numbers)."""
+    committed = json.loads((RESULTS / "manifest.json").read_text()).get("engine_build")
+    fresh = sorted(
+        {json.loads((out / e.name / "sweep.json").read_text())["engine"] for e in experiments}
+    )
+    same = fresh == [committed]
+    return f"reproduce: engine build {', '.join(fresh)} (fresh) vs {committed} (results/): " + (
+        "the same" if same else "different builds"
+    )
+
+
 def _who(header: list[str], row: list[str]) -> str:
     r = dict(zip(header, row, strict=True))
     point = "".join(f", {h} {r[h]}" for h in header[3 : header.index("scenario")] if "." in h)
@@ -292,6 +305,7 @@ def main(argv: list[str] | None = None) -> int:
             problems: list[str] = []
         else:
             problems = check_docs(ROOT, DOCS, blocks) + compare_runs(out, experiments=chosen)
+            print(build_note(out, chosen))
     total = time.perf_counter() - t0
     if problems:
         for p in problems:
