@@ -214,7 +214,10 @@ def _finding_verdict(s: Sweep, col: str, claimed: str, sense: str) -> tuple[str,
             beats.append(s.short(o))
         if sig and sign * d > 0:
             loses.append(s.short(o))
-        parts.append(f"vs {s.short(o)} {d:+,.1f} (p_adj {pval(p)})")
+        ahead = c["a_lower"] if sense == "lowest" else c["b_lower"]
+        parts.append(
+            f"vs {s.short(o)} {d:+,.1f} (p_adj {pval(p)}; ahead on {ahead} of {c['n_pairs']})"
+        )
     if len(beats) == len(others):
         verdict = "**confirmed**"
     elif loses:

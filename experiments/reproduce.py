@@ -165,11 +165,16 @@ def write_results(out: Path, results: Path = RESULTS) -> None:
         if exp.grid:
             summary = json.loads((dest / "summary.json").read_text())
             (dest / "summary.json").write_text(json.dumps(trim_grid(summary), indent=1) + "\n")
+    builds = sorted(
+        {json.loads((out / e.name / "sweep.json").read_text())["engine"] for e in EXPERIMENTS}
+    )
     manifest = {
-        "engine_build": engine_fingerprint(),
+        "engine_build": builds[0] if len(builds) == 1 else builds,
+        "renderer_engine_build": engine_fingerprint(),
         "source": git_commit(),
-        "note": "engine_build is the hash of engine/*.py the runs were made with (as in every "
-        "sweep.json); source is `git describe --dirty` of the tree that wrote these files",
+        "note": "engine_build is the hash of engine/*.py the runs were made with (from their "
+        "sweep.json); source is `git describe --dirty` of the tree that wrote these files, "
+        "renderer_engine_build its engine's hash",
         "experiments": [
             {"name": e.name, "command": e.command, "seeds": e.seeds} for e in EXPERIMENTS
         ],
@@ -312,7 +317,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"reproduce: MISMATCH {p}", file=sys.stderr)
         print(f"reproduce: FAILED, {len(problems)} mismatches ({total:.0f} s)", file=sys.stderr)
         return 1
-    print(f"reproduce: OK, every generated number matches the fresh run ({total:.0f} s)")
+    if not args.write:
+        print(f"reproduce: OK, every generated number matches the fresh run ({total:.0f} s)")
     return 0
 
 
