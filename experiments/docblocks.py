@@ -86,7 +86,10 @@ def render_blocks(out: Path) -> dict[str, str]:
 # --- the reference sweep -----------------------------------------------------------------
 def reference_meta(s: Sweep) -> str:
     st = s.summary
+    pols = ",".join(str(p["number"]) if p["number"] else p["name"] for p in st["policies"])
     return (
+        f"```bash\nregolith sweep --policies {pols} --seeds {s.seed_text.replace('–', '-')} "
+        "--out sweeps/reference\n```\n\n"
         f"Reference scenario, seeds {s.seed_text}, "
         f"{len(s.policies)} policies, {st['runs']} runs, {st['completed_runs']} completed. "
         "Mean ± half-width of the 95% CI over the completed runs of each policy:\n"
