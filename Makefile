@@ -8,7 +8,7 @@ RUN_STAMP := $(VENV)/.installed-run
 HOST    ?= 127.0.0.1
 PORT    ?= 8000
 
-.PHONY: run test lint format browser postgresql bench clean
+.PHONY: run test lint format browser postgresql bench reproduce results clean
 
 $(BIN)/pip:
 	$(PY) -m venv $(VENV)
@@ -58,6 +58,17 @@ format: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/engine_bench.py
+
+# Rerun every experiment docs/experiments.md and docs/policies.md cite, from scratch, into a
+# temporary folder, and check every generated number in them (and results/*/runs.csv)
+# against the fresh run. Not part of CI (~minutes on 2 cores; docs/experiments.md).
+reproduce: $(STAMP)
+	nice $(BIN)/python -m experiments.reproduce
+
+# The same experiments (resumable in sweeps/reproduce/), then rewrite results/, the docs'
+# generated blocks and their figures from them.
+results: $(STAMP)
+	nice $(BIN)/python -m experiments.reproduce --write
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .import_linter_cache

@@ -12,6 +12,23 @@ if TYPE_CHECKING:
 
 AUCTION_KINDS_REPORTED = ("scout_excavator", "excavator_hauler")
 
+STATES: dict[str, tuple[str, ...]] = {
+    "scout": ("idle", "scanning", "failed", "disabled"),
+    "excavator": ("idle", "travelling", "digging", "waiting", "loading", "failed", "disabled"),
+    "hauler": (
+        "idle",
+        "travelling",
+        "waiting",
+        "loading",
+        "carrying",
+        "unloading",
+        "failed",
+        "disabled",
+    ),
+}
+"""The states each robot type reports time in (always all of them, so every run has the same
+columns); a state outside these lists is reported too, under its own name."""
+
 
 def open_time_stats(values: list[float]) -> dict[str, float | int | None]:
     if not values:
@@ -30,6 +47,12 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
         if r.rtype in distance:
             distance[r.rtype] += r.distance + (_partial(r))
     field, obs = ctx.field, ctx.observer
+    in_state = {t: dict.fromkeys(STATES[t], 0.0) for t in ROBOT_TYPES}
+    for r in ctx.robots.values():
+        if r.rtype in in_state:
+            per_type = in_state[r.rtype]
+            for state, s in r.state_times().items():
+                per_type[state] = per_type.get(state, 0.0) + s
     open_times: dict[str, list[float]] = {k: [] for k in AUCTION_KINDS_REPORTED}
     for rec in obs.auctions:
         if rec.status == "closed" and rec.kind in open_times and rec.open_time is not None:
@@ -43,6 +66,8 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
         "minerals_total": field.minerals_total,
         "distance": distance,
         "distance_total": sum(distance.values()),
+        # robot-seconds in each state, summed over the robots of a type
+        "time_in_state": in_state,
         "auction_open_s": {k: open_time_stats(v) for k, v in open_times.items()},
         "auctions": len(obs.auctions),
         "bids": obs.bids,

@@ -59,7 +59,10 @@ class RobotCore:
         self.pos = pos
         self.heading = 0.0
         self.speed = speed
-        self.state = "idle"
+        self.born_at = float(self.env.now)
+        self._state = "idle"
+        self._state_since = self.born_at
+        self.time_in_state: dict[str, float] = {}  # closed spells only; see `state_times`
         self.alive = True
         self.enabled = True
         self.leaving = False
@@ -101,6 +104,27 @@ class RobotCore:
         self.pending_awards: list[PendingAward] = []
         self.down: set[str] = set()
         self.down_at: dict[str, float] = {}
+
+    @property
+    def state(self) -> str:
+        """What the robot is doing; every change is timed on the simulation clock."""
+        return self._state
+
+    @state.setter
+    def state(self, value: str) -> None:
+        if value == self._state:
+            return
+        now = float(self.env.now)
+        spent = self.time_in_state.get(self._state, 0.0)
+        self.time_in_state[self._state] = spent + (now - self._state_since)
+        self._state, self._state_since = value, now
+
+    def state_times(self) -> dict[str, float]:
+        """Seconds spent in each state since the robot joined, the current spell up to now
+        (they add up to now − born_at)."""
+        out = dict(self.time_in_state)
+        out[self._state] = out.get(self._state, 0.0) + (float(self.env.now) - self._state_since)
+        return out
 
     @property
     def participating(self) -> bool:
