@@ -77,24 +77,36 @@ class OracleAllocator:
             for a in tasks
             if a is not rec and a.awards and a.awards[-1].outcome == "pending"
         }
-        robots = [
-            r
-            for name, r in sorted(ctx.robots.items())
-            if r.capability == rec.task_type and r.can_take() and name not in promised
-        ]
-        if not robots:
-            return []
-        cost = np.full((len(tasks), len(robots)), FORBIDDEN)
-        for j, robot in enumerate(robots):
-            for i, task in enumerate(tasks):
-                if task is rec and robot.name in excluded:
-                    continue
-                cost[i, j] = _travel_s(ctx, robot, task.location)
-        chosen = optimal_assignment(cost).get(tasks.index(rec))
-        return [] if chosen is None else [robots[chosen].name]
+        return assign_greedily(ctx, rec, tasks, promised, excluded)
 
 
-def _travel_s(ctx: MissionContext, robot: Robot, goal: tuple[float, float]) -> float:
+def assign_greedily(
+    ctx: MissionContext,
+    rec: AuctionRecord,
+    tasks: list[AuctionRecord],
+    promised: Set[str],
+    excluded: Set[str],
+) -> list[str]:
+    """The robot a minimal-travel-time assignment of `tasks` to the robots free now (not
+    promised elsewhere) gives `rec`, if any; `excluded` robots may not take `rec`."""
+    robots = [
+        r
+        for name, r in sorted(ctx.robots.items())
+        if r.capability == rec.task_type and r.can_take() and name not in promised
+    ]
+    if not robots:
+        return []
+    cost = np.full((len(tasks), len(robots)), FORBIDDEN)
+    for j, robot in enumerate(robots):
+        for i, task in enumerate(tasks):
+            if task is rec and robot.name in excluded:
+                continue
+            cost[i, j] = travel_s(ctx, robot, task.location)
+    chosen = optimal_assignment(cost).get(tasks.index(rec))
+    return [] if chosen is None else [robots[chosen].name]
+
+
+def travel_s(ctx: MissionContext, robot: Robot, goal: tuple[float, float]) -> float:
     """Time to drive from the robot's true position to the goal along the planned path."""
     try:
         length = path_length(ctx.planner.plan(robot.position()[0], goal))

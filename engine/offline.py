@@ -30,13 +30,10 @@ from collections.abc import Mapping, Set
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from engine.central import FORBIDDEN, optimal_assignment
+from engine.central import assign_greedily
 from engine.field import NEAR
 from engine.foresight import SnappingPlanner, legs, predict_found
-from engine.geometry import Point, dist, path_length
-from engine.planning import PlanningError
+from engine.geometry import Point, dist
 from engine.schedule import Job, Problem, Schedule, Unit, optimize
 
 if TYPE_CHECKING:
@@ -164,21 +161,7 @@ class OfflineAllocator:
         if rec not in tasks:
             tasks.append(rec)
         promised = _promised(ctx, rec)
-        robots = [
-            r
-            for name, r in sorted(ctx.robots.items())
-            if r.capability == rec.task_type and r.can_take() and name not in promised
-        ]
-        if not robots:
-            return []
-        cost = np.full((len(tasks), len(robots)), FORBIDDEN)
-        for j, robot in enumerate(robots):
-            for i, task in enumerate(tasks):
-                if task is rec and robot.name in excluded:
-                    continue
-                cost[i, j] = _travel_s(ctx, robot, task.location)
-        chosen = optimal_assignment(cost).get(tasks.index(rec))
-        return [] if chosen is None else [robots[chosen].name]
+        return assign_greedily(ctx, rec, tasks, promised, excluded)
 
     def _covers(self, ctx: MissionContext, rec: AuctionRecord) -> bool:
         site = self._site(ctx, rec.location)
@@ -338,11 +321,3 @@ def _promised(ctx: MissionContext, rec: AuctionRecord) -> set[str]:
         for a in ctx.observer.auctions
         if a is not rec and a.status == "open" and a.awards and a.awards[-1].outcome == "pending"
     }
-
-
-def _travel_s(ctx: MissionContext, robot: Robot, goal: Point) -> float:
-    try:
-        length = path_length(ctx.planner.plan(robot.position()[0], goal))
-    except PlanningError:
-        return FORBIDDEN
-    return length / robot.speed if math.isfinite(length) else FORBIDDEN

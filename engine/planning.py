@@ -57,6 +57,34 @@ class StraightLinePlanner:
         pass
 
 
+class ShortcutPlanner:
+    """What every obstacle-aware planner shares: a collision-free straight segment is the
+    answer (it is the shortest path), and a repeated query is answered from a per-run cache;
+    a subclass solves the rest (`_solve`)."""
+
+    def __init__(self, world: World) -> None:
+        self.stats = PlannerStats()
+        self._index = world.index
+        self._cache: dict[tuple[Point, Point], Path] = {}
+
+    def plan(self, start: Point, goal: Point) -> Path:
+        self.stats.queries += 1
+        if self._index.segment_free(start, goal):
+            self.stats.straight += 1
+            return (start, goal)
+        key = (start, goal)
+        hit = self._cache.get(key)
+        if hit is not None:
+            self.stats.cached += 1
+            return hit
+        path = self._solve(start, goal)
+        self._cache[key] = path
+        return path
+
+    def _solve(self, start: Point, goal: Point) -> Path:
+        raise NotImplementedError
+
+
 CHECKS = 2500
 """Termination checks RRT-Connect may make per attempt (×1, ×2, ×3, ×4 over four attempts).
 
@@ -66,7 +94,7 @@ reference scenario need at most ~80 checks; 2,500 is about the 50 ms limit used 
 """
 
 
-class OmplPlanner:
+class OmplPlanner(ShortcutPlanner):
     """RRT-Connect over the world's craters, with an exact segment-vs-circle motion check."""
 
     def __init__(self, world: World, rng: np.random.Generator, checks: int = CHECKS) -> None:
@@ -75,12 +103,10 @@ class OmplPlanner:
         from ompl import util as ou
 
         ou.setLogLevel(ou.LogLevel.LOG_NONE)
-        self.stats = PlannerStats()
+        super().__init__(world)
         self._rng = rng
         self._checks = checks
         self._ob = ob
-        self._index = world.index
-        self._cache: dict[tuple[Point, Point], Path] = {}
         self._ou = ou
         index = self._index
 
@@ -103,20 +129,6 @@ class OmplPlanner:
         ss.setPlanner(og.RRTConnect(si))
         ss.setup()
         self._space, self._ss = space, ss
-
-    def plan(self, start: Point, goal: Point) -> Path:
-        self.stats.queries += 1
-        if self._index.segment_free(start, goal):
-            self.stats.straight += 1
-            return (start, goal)
-        key = (start, goal)
-        hit = self._cache.get(key)
-        if hit is not None:
-            self.stats.cached += 1
-            return hit
-        path = self._solve(start, goal)
-        self._cache[key] = path
-        return path
 
     def _solve(self, start: Point, goal: Point) -> Path:
         ss, space = self._ss, self._space

@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from engine.geometry import Point, dist, segment_point_distance
-from engine.planning import Path, PlannerStats, PlanningError
+from engine.planning import Path, PlanningError, ShortcutPlanner
 from engine.world import CLEARANCE, World
 
 ARC_STEP = math.radians(5.0)
@@ -332,14 +332,13 @@ def _arc_polyline(c: _Rim, p: Point, q: Point, a0: float, sweep: float) -> Path:
     return (p, *mids, q)
 
 
-class TangentPlanner:
-    """The `exact` planner: shortest paths over the world's tangent graph, cached per query."""
+class TangentPlanner(ShortcutPlanner):
+    """The `exact` planner: shortest paths over the world's tangent graph."""
 
     def __init__(self, world: World) -> None:
-        self.stats = PlannerStats()
+        super().__init__(world)
         self._world = world
         self._graph: TangentGraph | None = None
-        self._cache: dict[tuple[Point, Point], Path] = {}
 
     @property
     def graph(self) -> TangentGraph:
@@ -347,19 +346,8 @@ class TangentPlanner:
             self._graph = TangentGraph(self._world)
         return self._graph
 
-    def plan(self, start: Point, goal: Point) -> Path:
-        self.stats.queries += 1
-        if self._world.index.segment_free(start, goal):
-            self.stats.straight += 1
-            return (start, goal)
-        key = (start, goal)
-        hit = self._cache.get(key)
-        if hit is not None:
-            self.stats.cached += 1
-            return hit
-        path = self.graph.shortest(start, goal)
-        self._cache[key] = path
-        return path
+    def _solve(self, start: Point, goal: Point) -> Path:
+        return self.graph.shortest(start, goal)
 
     def close(self) -> None:
         self._graph = None
