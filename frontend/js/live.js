@@ -14,6 +14,7 @@ import { ENDED, LIVE, MissionStatus } from "./status.js";
 import { COUNTER_KEYS, loadFinal, showCounters, validId } from "./final.js";
 import { exposeLive } from "./liveexpose.js";
 import { Playback } from "./playback.js";
+import { FrameState } from "./framestate.js";
 
 const DETAIL_MS = 1000; // robot list (paths, tasks, distance) refresh while the stream runs
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
@@ -35,6 +36,8 @@ export class LiveView {
     this.poll = null;
     this.finalShown = null; // the id whose stored ending is shown
     this.state = this._empty();
+    this.frames = new FrameState(); // the stream's state: snapshot + deltas (framestate.js)
+    this.resyncAsked = false;
     // the parts below know this view only through these callbacks
     this.map = new MapView($("#map"), {
       onPick: (x, y) => this.playback.active || this.controls.pick(x, y), // none while looking back
@@ -61,7 +64,7 @@ export class LiveView {
     this.controls = new Controls({
       mission: () => ({ id: this.id, status: this.status.status, policy: this.status.policy, speed: this.status.speed, map: this.state.map }),
       onStatus: (m) => this.status.set(m),
-      onRobotsChanged: () => this._refreshDetail(),
+      onRobotsChanged: () => this._refreshDetail({ now: true }),
       showPick: (point) => this.map.setPick(point),
       toScreen: (x, y) => this.map.toScreen(x, y),
     });
@@ -179,12 +182,15 @@ export class LiveView {
 
   /** One message from the live stream. */
   handle(msg) {
+    // frames are deltas: the stream's state follows every one, even while looking back
+    if (msg.type === "snapshot") this.frames.snapshot(msg);
+    if (msg.type === "frame" && !this._follow(msg)) return undefined;
     if (this.playback.intercept(msg)) return undefined; // looking back: the stream waits
     switch (msg.type) {
       case "snapshot":
         return this._snapshot(msg);
       case "frame":
-        return this._frame(msg);
+        return this._frame(this.frames.view());
       case "auction":
         return this.feed.upsert(msg.auction);
       case "event":
@@ -197,7 +203,17 @@ export class LiveView {
     }
   }
 
-  /** {mission: MissionRead, map: world map, state: Mission.snapshot() or null}. */
+  /** Apply a frame to the stream's state; after a gap, ask once for a full frame. */
+  _follow(msg) {
+    if (this.frames.apply(msg)) {
+      this.resyncAsked = false;
+      return true;
+    }
+    if (!this.resyncAsked) this.resyncAsked = this.stream.send({ type: "resync" });
+    return false;
+  }
+
+  /** {mission: MissionRead, map: world map, seq, state: Mission.snapshot() or null}. */
   _snapshot(msg) {
     const m = msg.mission;
     // `state` is null only when the server crashed before storing one: nothing at the record's time
@@ -225,10 +241,15 @@ export class LiveView {
     s.counters = f.counters;
     const robots = f.robots;
     // keep only the per-frame fields: task, distance and path come from the robot list
-    for (const r of robots) s.robots.set(r.name, pick(r, FRAME_FIELDS));
-    for (const name of [...s.robots.keys()]) if (!robots.some((r) => r.name === name)) s.robots.delete(name);
+    const names = new Set();
+    for (const r of robots) {
+      names.add(r.name);
+      s.robots.set(r.name, pick(r, FRAME_FIELDS));
+    }
+    for (const name of [...s.robots.keys()]) if (!names.has(name)) s.robots.delete(name);
     this.map.setRobots(robots, { snap });
-    if (f.scanned) this.map.setScanned(f.scanned);
+    if (f.scannedBits) this.map.setScannedBits(f.scannedBits);
+    else if (f.scanned) this.map.setScanned(f.scanned);
     const canvas = $("#map");
     canvas.dataset.robotCount = String(robots.length);
     canvas.dataset.frameCount = String(s.frames);
@@ -262,14 +283,14 @@ export class LiveView {
         break;
       case "policy_changed": // {old, new}
         this.status.set({ policy: d.new });
-        this._refreshDetail();
+        this._refreshDetail({ now: true });
         break;
       case "robot_added":
       case "robot_failed":
       case "robot_disabled":
       case "robot_enabled":
       case "failure_detected":
-        this._refreshDetail();
+        this._refreshDetail({ now: true });
         break;
       default:
         break;
@@ -312,9 +333,13 @@ export class LiveView {
     this.table.update(robots.map((r) => ({ ...s.detail.get(r.name), ...r })));
   }
 
-  async _refreshDetail() {
+  async _refreshDetail({ now = false } = {}) {
     const id = this.id;
     if (!id || document.hidden || this.playback.active) return; // looking back: not now
+    // a big team's list (paths and all) is read less often: every 1 s up to 200 robots, up to 5 s
+    const every = Math.min(5000, DETAIL_MS * Math.max(1, this.state.robots.size / 200));
+    if (!now && performance.now() - (this.detailAt || 0) < every - 50) return;
+    this.detailAt = performance.now();
     try {
       const list = await get(`/missions/${encodeURIComponent(id)}/robots`); // [RobotRead]
       if (id !== this.id || this.finalShown === id) return; // may predate the ending

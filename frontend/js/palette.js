@@ -52,6 +52,37 @@ export function traceShape(ctx, type, r) {
   }
 }
 
+/**
+ * Add the type's shape to `path` (a Path2D or a context), centred on (x, y), turned by
+ * `heading` (world angles, anticlockwise with y up): many robots go in one path, drawn with
+ * one fill and one stroke.
+ */
+export function addShape(path, type, r, x, y, heading) {
+  const c = Math.cos(-heading);
+  const s = Math.sin(-heading);
+  const pt = (px, py) => [x + px * c - py * s, y + px * s + py * c];
+  const poly = (points, close = true) => {
+    const [x0, y0] = pt(...points[0]);
+    path.moveTo(x0, y0);
+    for (let i = 1; i < points.length; i++) path.lineTo(...pt(...points[i]));
+    if (close) path.closePath();
+  };
+  if (type === "scout") {
+    poly([[r * 1.25, 0], [-r * 0.85, r * 0.85], [-r * 0.4, 0], [-r * 0.85, -r * 0.85]]);
+  } else if (type === "excavator") {
+    const k = r * 0.85;
+    poly([[-k, -k], [k, -k], [k, k], [-k, k]]);
+    poly([[k, -r * 0.55], [r * 1.35, -r * 0.7], [r * 1.35, r * 0.7], [k, r * 0.55]], false);
+  } else if (type === "hauler") {
+    path.moveTo(...pt(r * Math.cos(0.45), r * Math.sin(0.45)));
+    path.arc(x, y, r, 0.45 - heading, 2 * Math.PI - 0.45 - heading);
+    path.lineTo(...pt(r * 1.35, 0));
+    path.closePath();
+  } else {
+    poly([[0, -r], [r, 0], [0, r], [-r, 0]]);
+  }
+}
+
 /** A small canvas glyph for tables and the legend (same shapes as the map). */
 export function glyph(type, size = 14, variant = "") {
   const c = document.createElement("canvas");
