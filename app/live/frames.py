@@ -54,34 +54,42 @@ class FrameStream:
         self._scanned_bytes = b""
         self.scanned_count = 0
         self.counters: dict[str, Any] = {}
+        self._raw: dict[str, Json] = {}  # the engine's last dict of each robot, unrounded
         self._full: tuple[int, Json] | None = None
 
     def advance(self, frame: Json) -> Json | None:
         """Take the engine's next frame; return the delta from the last one (with `seq` and
         `base`), a full frame if the roster shrank, or None when nothing changed."""
-        robots = [rounded(r) for r in frame["robots"]]
-        if len(robots) < len(self.names) or any(
-            r["name"] != n for r, n in zip(robots, self.names, strict=False)
+        raw_robots = frame["robots"]
+        if len(raw_robots) < len(self.names) or any(
+            r["name"] != n for r, n in zip(raw_robots, self.names, strict=False)
         ):
-            self._reset(frame, robots)
+            self._reset(frame, [rounded(r) for r in raw_robots])
             self.seq += 1
             return self.full()
         whole: list[Json] = []
         poses: list[Any] = []
-        for i, r in enumerate(robots):
-            old = self.robots.get(r["name"])
+        raw = self._raw
+        for i, engine_robot in enumerate(raw_robots):
+            name = engine_robot["name"]
+            if raw.get(name) == engine_robot:  # unchanged to the bit: nothing to round
+                continue
+            raw[name] = engine_robot
+            r = rounded(engine_robot)
+            old = self.robots.get(name)
             if old is None:
-                self.names.append(r["name"])
-                self.index[r["name"]] = i
+                self.names.append(name)
+                self.index[name] = i
                 whole.append(r)
             elif old != r:
-                if all(old.get(k) == v for k, v in r.items() if k not in POSE) and len(old) == len(
-                    r
-                ):
+                same = len(old) == len(r) and all(
+                    old.get(k) == v for k, v in r.items() if k not in POSE
+                )
+                if same:
                     poses += [i, r["x"], r["y"], r["heading"]]
                 else:
                     whole.append(r)
-            self.robots[r["name"]] = r
+            self.robots[name] = r
         counters = {k: v for k, v in frame["counters"].items() if self.counters.get(k) != v}
         self.counters.update(counters)
         cells: list[int] = []
@@ -108,6 +116,7 @@ class FrameStream:
     def _reset(self, frame: Json, robots: list[Json]) -> None:
         self.head = {k: frame[k] for k in ("t", "status", "policy")}
         self.robots = {r["name"]: r for r in robots}
+        self._raw = {r["name"]: r for r in frame["robots"]}
         self.names = [r["name"] for r in robots]
         self.index = {n: i for i, n in enumerate(self.names)}
         self.scanned = frame["scanned"]

@@ -8,19 +8,30 @@ export const WORKING = new Set(["digging", "loading", "unloading"]);
 /** Past this many robots on screen the map is "dense": glyphs are filled without an outline,
  * paths are solid, not dashed (dashes and outlines are most of a software canvas's work). */
 export const DENSE = 300;
+const SCANNED_MS = 250;
 
+const SHORT = new Map(); // name -> short name (asked for every robot on every frame)
 export function shortName(name) {
-  const m = /^([a-z])[a-z]*-(\d+)$/.exec(name);
-  return m ? `${m[1].toUpperCase()}${m[2]}` : name;
+  let short = SHORT.get(name);
+  if (short === undefined) {
+    const m = /^([a-z])[a-z]*-(\d+)$/.exec(name);
+    short = m ? `${m[1].toUpperCase()}${m[2]}` : name;
+    if (SHORT.size < 50000) SHORT.set(name, short);
+  }
+  return short;
 }
 
 /** The layer that moves only with the view or the scanned cells (area, scanned cells, grid,
  * craters, plant), kept in an offscreen canvas and redrawn only when one of those changes. */
 function background(mv) {
   const { canvas, map, scene, view, dpr } = mv;
-  const key = `${canvas.width}x${canvas.height}@${dpr}:${view.scale},${view.ox},${view.oy}:${scene.scannedVersion || 0}`;
+  const place = `${canvas.width}x${canvas.height}@${dpr}:${view.scale},${view.ox},${view.oy}`;
+  const key = `${place}:${scene.scannedVersion || 0}`;
   let bg = mv.bg;
   if (bg && bg.key === key) return bg.canvas;
+  // newly scanned cells alone redraw it at most 4 times a second (a moved view at once)
+  const now = performance.now();
+  if (bg && bg.key.startsWith(`${place}:`) && now - bg.at < SCANNED_MS) return bg.canvas;
   if (!bg || bg.canvas.width !== canvas.width || bg.canvas.height !== canvas.height) {
     const c = document.createElement("canvas");
     c.width = canvas.width;
@@ -28,6 +39,7 @@ function background(mv) {
     bg = mv.bg = { canvas: c, key: "" };
   }
   bg.key = key;
+  bg.at = now;
   const ctx = bg.canvas.getContext("2d");
   ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
   ctx.clearRect(0, 0, canvas.width, canvas.height);
@@ -332,7 +344,12 @@ function drawRobots(ctx, mv, poses, P, s, now, labels) {
   const r = Math.min(11, Math.max(6, 0.9 * s));
   const scanR = (mv.map.grid.cell_w / Math.SQRT2) * s;
   const isDown = (rb) => DOWN.has(rb.state) || rb.alive === false;
-  const list = [...poses.values()].sort((a, b) => Number(isDown(a)) - Number(isDown(b)));
+  // robots that are down last (drawn on top); two passes rather than a sort
+  const list = [];
+  for (const rb of poses.values()) if (!isDown(rb)) list.push(rb);
+  for (const rb of poses.values()) if (isDown(rb)) list.push(rb);
+  const { scale: vs, ox, oy } = mv.view;
+  const top = mv.map.height;
   const w = mv.canvas.clientWidth;
   const hgt = mv.canvas.clientHeight;
   const margin = Math.max(r * 2, scanR) + 2;
@@ -345,8 +362,12 @@ function drawRobots(ctx, mv, poses, P, s, now, labels) {
   const names = [];
   const drawnNames = [];
   const lr = Math.max(2.5, r * 0.32);
+  const dense = list.length > DENSE;
+  const cursor = mv.cursor;
+  const hovered = dense && cursor ? mv.robotAt(cursor.x, cursor.y, 12, poses)?.name : null;
   for (const rb of list) {
-    const [x, y] = P(rb.x, rb.y);
+    const x = ox + rb.x * vs; // mv.toScreen, inlined: this loop runs for every robot
+    const y = oy + (top - rb.y) * vs;
     if (x < -margin || y < -margin || x > w + margin || y > hgt + margin) continue; // off screen
     drawnNames.push(rb.name);
     const type = robotType(rb);
@@ -377,9 +398,11 @@ function drawRobots(ctx, mv, poses, P, s, now, labels) {
       count.crosses++;
     }
     labels.block(x, y, r);
+    // a robot that is down is named first, so a crowd never hides it; on a dense map only
+    // those and the robot under the cursor are named (the others would collide anyway)
+    if (!mv.scene.options.labels || (dense && !down && rb.name !== hovered)) continue;
     const spots = [[x, y - r - 4, "center"], ...around(x, y, r)];
-    // a robot that is down is named first, so a crowd never hides it
-    if (mv.scene.options.labels) names[down ? "unshift" : "push"]([shortName(rb.name), spots, down ? "#ffb38a" : "#e6edf3"]);
+    names[down ? "unshift" : "push"]([shortName(rb.name), spots, down ? "#ffb38a" : "#e6edf3"]);
   }
   if (count.scans) {
     ctx.fillStyle = "rgba(86,180,233,0.08)";

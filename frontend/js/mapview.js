@@ -233,6 +233,8 @@ export class MapView {
       const rect = c.getBoundingClientRect();
       const [wx, wy] = this.toWorld(e.clientX - rect.left, e.clientY - rect.top);
       this.onCursor(wx, wy);
+      this.cursor = { x: wx, y: wy }; // a dense map names the robot under the cursor
+      this.dirty = true;
       if (!press) return;
       const dx = e.clientX - press.x;
       const dy = e.clientY - press.y;
@@ -255,7 +257,10 @@ export class MapView {
       if (wx < 0 || wy < 0 || wx > this.map.width || wy > this.map.height) return;
       this.onPick(wx, wy, sx, sy);
     });
-    c.addEventListener("pointerleave", () => this.onCursor(null, null));
+    c.addEventListener("pointerleave", () => {
+      this.cursor = null;
+      this.onCursor(null, null);
+    });
     c.addEventListener(
       "wheel",
       (e) => {
@@ -303,15 +308,18 @@ export class MapView {
   /** Poses of every robot as drawn at this instant. */
   poses(now = performance.now()) {
     const out = new Map();
-    for (const [name, r] of this.scene.robots) out.set(name, { ...r, ...(this._pose(name, now) || {}) });
+    for (const [name, r] of this.scene.robots) {
+      const pose = this._pose(name, now);
+      out.set(name, pose ? Object.assign({}, r, pose) : r);
+    }
     return out;
   }
 
   /** The drawn robot nearest map point (x, y) within `px` screen pixels, or null. */
-  robotAt(x, y, px = 12) {
+  robotAt(x, y, px = 12, poses = this.poses()) {
     const reach = px / this.view.scale;
     let best = null;
-    for (const p of this.poses().values()) {
+    for (const p of poses.values()) {
       const d = Math.hypot(p.x - x, p.y - y);
       if (d < reach && (!best || d < best.d)) best = { d, p };
     }

@@ -58,30 +58,33 @@ export function traceShape(ctx, type, r) {
  * one fill and one stroke.
  */
 export function addShape(path, type, r, x, y, heading) {
-  const c = Math.cos(-heading);
-  const s = Math.sin(-heading);
-  const pt = (px, py) => [x + px * c - py * s, y + px * s + py * c];
-  const poly = (points, close = true) => {
-    const [x0, y0] = pt(...points[0]);
-    path.moveTo(x0, y0);
-    for (let i = 1; i < points.length; i++) path.lineTo(...pt(...points[i]));
-    if (close) path.closePath();
-  };
-  if (type === "scout") {
-    poly([[r * 1.25, 0], [-r * 0.85, r * 0.85], [-r * 0.4, 0], [-r * 0.85, -r * 0.85]]);
-  } else if (type === "excavator") {
-    const k = r * 0.85;
-    poly([[-k, -k], [k, -k], [k, k], [-k, k]]);
-    poly([[k, -r * 0.55], [r * 1.35, -r * 0.7], [r * 1.35, r * 0.7], [k, r * 0.55]], false);
-  } else if (type === "hauler") {
-    path.moveTo(...pt(r * Math.cos(0.45), r * Math.sin(0.45)));
-    path.arc(x, y, r, 0.45 - heading, 2 * Math.PI - 0.45 - heading);
-    path.lineTo(...pt(r * 1.35, 0));
+  const c = Math.cos(heading);
+  const s = -Math.sin(heading); // sin(-heading): canvas y points down
+  const X = (px, py) => x + px * c - py * s;
+  const Y = (px, py) => y + px * s + py * c;
+  const outline = type === "scout" ? SCOUT : type === "excavator" ? BODY : type === "hauler" ? null : OTHER;
+  if (outline) {
+    path.moveTo(X(outline[0] * r, outline[1] * r), Y(outline[0] * r, outline[1] * r));
+    for (let i = 2; i < outline.length; i += 2) path.lineTo(X(outline[i] * r, outline[i + 1] * r), Y(outline[i] * r, outline[i + 1] * r));
     path.closePath();
-  } else {
-    poly([[0, -r], [r, 0], [0, r], [-r, 0]]);
+  }
+  if (type === "excavator") {
+    path.moveTo(X(BLADE[0] * r, BLADE[1] * r), Y(BLADE[0] * r, BLADE[1] * r));
+    for (let i = 2; i < BLADE.length; i += 2) path.lineTo(X(BLADE[i] * r, BLADE[i + 1] * r), Y(BLADE[i] * r, BLADE[i + 1] * r));
+  } else if (type === "hauler") {
+    path.moveTo(X(r * COS45, r * SIN45), Y(r * COS45, r * SIN45));
+    path.arc(x, y, r, 0.45 - heading, 2 * Math.PI - 0.45 - heading);
+    path.lineTo(X(r * 1.35, 0), Y(r * 1.35, 0));
+    path.closePath();
   }
 }
+// the shapes of traceShape, as outlines of unit radius (x, y pairs)
+const SCOUT = [1.25, 0, -0.85, 0.85, -0.4, 0, -0.85, -0.85];
+const BODY = [-0.85, -0.85, 0.85, -0.85, 0.85, 0.85, -0.85, 0.85];
+const BLADE = [0.85, -0.55, 1.35, -0.7, 1.35, 0.7, 0.85, 0.55];
+const OTHER = [0, -1, 1, 0, 0, 1, -1, 0];
+const COS45 = Math.cos(0.45);
+const SIN45 = Math.sin(0.45);
 
 /** A small canvas glyph for tables and the legend (same shapes as the map). */
 export function glyph(type, size = 14, variant = "") {
