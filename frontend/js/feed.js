@@ -5,7 +5,7 @@
 
 import { h, fmt } from "./dom.js";
 import { KIND_LABEL } from "./palette.js";
-import { shortName } from "./mapdraw.js";
+import { shortName } from "./maprobots.js";
 import { VirtualRows } from "./virtual.js";
 
 const MAX_CARDS = 80;

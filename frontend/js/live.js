@@ -3,7 +3,7 @@
 // the server's word only (status.js): frames move robots and the clock, never the status.
 
 import { $, clock, fmt, toast } from "./dom.js";
-import { get, qs } from "./api.js";
+import { get } from "./api.js";
 import { LiveStream } from "./stream.js";
 import { MapView } from "./mapview.js";
 import { AuctionFeed } from "./feed.js";
@@ -15,6 +15,7 @@ import { COUNTER_KEYS, loadFinal, showCounters, validId } from "./final.js";
 import { exposeLive } from "./liveexpose.js";
 import { Playback } from "./playback.js";
 import { FrameState } from "./framestate.js";
+import { loadHistory } from "./livehistory.js";
 
 const DETAIL_MS = 1000; // robot list (paths, tasks, distance) refresh while the stream runs
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
@@ -151,7 +152,7 @@ export class LiveView {
     }
     if (!current()) return;
     this.stream.connect(id);
-    this._loadHistory();
+    loadHistory(id, { feed: this.feed, charts: this.charts, current: () => id === this.id });
     this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
   }
 
@@ -390,27 +391,5 @@ export class LiveView {
     this.charts.final = false;
     delete $("#live").dataset.final;
     if (resumed && this.id && !this.poll) this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
-  }
-
-  async _loadHistory() {
-    const id = this.id;
-    try {
-      // the API lists auctions oldest first: read the total, then the newest page
-      const path = `/missions/${encodeURIComponent(id)}/auctions`;
-      const head = await get(`${path}${qs({ limit: 1 })}`);
-      const offset = Math.max(0, head.total - 200);
-      const data = offset ? await get(`${path}${qs({ limit: 200, offset })}`) : await get(`${path}${qs({ limit: 200 })}`);
-      if (id !== this.id) return;
-      this.feed.load(data.items);
-    } catch {
-      /* the stream carries new auctions anyway */
-    }
-    try {
-      const data = await get(`/missions/${encodeURIComponent(id)}/events${qs({ kind: "delivered", limit: 1000 })}`);
-      if (id !== this.id) return;
-      this.charts.loadDeliveries(data.items);
-    } catch {
-      /* the chart fills from frames */
-    }
   }
 }

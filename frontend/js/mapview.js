@@ -1,7 +1,8 @@
 // The live map: a Canvas 2D view of the area to scale, with zoom (wheel, +/-), pan (drag,
 // arrow keys), smooth robot motion between frames, and click-to-pick a point.
 
-import { WORKING, drawScene } from "./mapdraw.js";
+import { drawScene } from "./mapdraw.js";
+import { WORKING } from "./maprobots.js";
 
 const DRAG_PX = 4; // a press that moves less than this is a click, not a pan
 
