@@ -257,7 +257,7 @@ export class LiveView {
     $("#live-time").textContent = clock(s.t);
     this.feed.tick(s.t);
     this.map.setOpenAuctions(this.feed.open());
-    this.table.update([...s.robots.values()].map((r) => ({ ...s.detail.get(r.name), ...r })));
+    this.table.update([...s.robots.values()], s.detail);
     this._counters(f);
     this.charts.onFrame({ t: s.t, counters: s.counters });
   }
@@ -331,7 +331,7 @@ export class LiveView {
     const robots = [...s.robots.values()];
     this.map.setRobots(robots, { polled: true });
     $("#map").dataset.robotCount = String(robots.length);
-    this.table.update(robots.map((r) => ({ ...s.detail.get(r.name), ...r })));
+    this.table.update(robots, s.detail);
   }
 
   async _refreshDetail({ now = false } = {}) {

@@ -53,8 +53,10 @@ export class RobotTable {
     for (const row of this.rows.values()) this._buttons(row);
   }
 
-  /** robots: merged frame + detail dicts (name, type, state, task, load, distance, alive, enabled). */
-  update(robots) {
+  /** robots: frame dicts (name, type, state, load, alive), merged with `detail` (the robot
+   * list's task, distance, enabled by name) for the rows that are filled. */
+  update(robots, detail = null) {
+    this.detail = detail;
     const key = robots.map((r) => r.name).join(",");
     let changedOrder = key !== this.names;
     if (changedOrder) {
@@ -80,7 +82,7 @@ export class RobotTable {
         this.rows.set(r.name, row);
         changedOrder = true;
       }
-      this._fill(row, r);
+      this._fill(row, this._merged(r));
     }
     for (const name of [...this.rows.keys()]) {
       if (!names.has(name)) {
@@ -110,13 +112,18 @@ export class RobotTable {
           const r = this.sorted[i];
           let row = this.rows.get(r.name);
           if (!row) this.rows.set(r.name, (row = this._row(r)));
-          this._fill(row, r);
+          this._fill(row, this._merged(r));
           return row.tr;
         },
       });
     }
     this.virtual.update(sorted.length);
     this._count(sorted);
+  }
+
+  _merged(r) {
+    const d = this.detail?.get(r.name);
+    return d ? { ...d, ...r } : r;
   }
 
   _count(sorted) {
