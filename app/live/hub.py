@@ -105,7 +105,7 @@ class Viewer:
         self._wake.set()
 
     def _next_frame(self) -> str | None:
-        if self.want_full:
+        if self.want_full and self.stream.seq > 0:  # before any frame there is nothing to send
             self.want_full, self.frame = False, None
             return encode({"type": "frame", "wall": time.time(), **self.stream.full()})
         if self.frame is None:

@@ -125,3 +125,27 @@ def test_bad_client_input_closes_that_socket_with_a_proper_code() -> None:
         viewer = hub.join(ws, "{}")  # type: ignore[arg-type]
         _run(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
         assert ws.closed == code and len(hub) == 0
+
+
+def test_a_resync_is_answered_with_a_full_frame_once_there_is_one() -> None:
+    async def scenario() -> FakeSocket:
+        hub = Hub(max_queue=10)
+        resync = {"type": "websocket.receive", "text": json.dumps({"type": "resync"})}
+        ws = FakeSocket(inbox=[resync])
+        viewer = hub.join(ws, json.dumps({"type": "snapshot"}))  # type: ignore[arg-type]
+        task = asyncio.create_task(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
+        await ws.wait_sent(1)
+        await asyncio.sleep(0.05)  # the resync was read: nothing streamed yet, nothing sent
+        assert len(ws.sent) == 1 and viewer.want_full
+        hub.publish_frame(_frame(1, x=2.0))
+        await ws.wait_sent(2)
+        hub.publish_frame(_frame(2, x=3.0))
+        await ws.wait_sent(3)
+        task.cancel()
+        return ws
+
+    ws = _run(scenario())
+    full, delta = ws.sent[1], ws.sent[2]
+    assert full["full"] is True and full["seq"] == 1 and "base" not in full
+    assert full["robots"] == [_frame(1, x=2.0)["robots"][0]] and full["scanned"] == "AA=="
+    assert (delta["base"], delta["seq"], delta["poses"]) == (1, 2, [0, 3.0, 1.0, 0.0])
