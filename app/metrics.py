@@ -94,7 +94,7 @@ class RegolithCollector(Collector):
         yield CounterMetricFamily("regolith_frames_sent", "Frames sent.", STATS.frames_sent)
         yield CounterMetricFamily(
             "regolith_frames_dropped",
-            "Stale frames replaced before they were sent.",
+            "Frames merged into a newer one before they were sent (a viewer still sending).",
             STATS.frames_dropped,
         )
         yield CounterMetricFamily(

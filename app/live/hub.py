@@ -1,8 +1,10 @@
 """WebSocket fan-out: each message is serialized once and handed to every viewer of a mission.
 
 A viewer owns a bounded queue of ordered messages (snapshot, events, auctions, status) and a
-single slot for the newest frame, so a stale frame is replaced, never queued. A viewer whose
-queue fills (it stopped reading) is dropped; nothing here ever waits on a client.
+single slot for its next frame. Frames are deltas (`app/live/frames.py`): one that arrives
+while the previous is still unsent is merged into it, so a slow viewer gets fewer, larger
+frames and misses no change. A viewer whose queue fills (it stopped reading) is dropped;
+nothing here ever waits on a client.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from collections import deque
 from typing import Any
 
 from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from app.live.frames import FrameStream, Json, Pending
 
 log = logging.getLogger("regolith.live")
 
@@ -44,14 +48,16 @@ STATS = FanoutStats()
 
 
 class Viewer:
-    """One connected client: an ordered bounded queue plus a latest-frame slot."""
+    """One connected client: an ordered bounded queue plus a slot for its next frame."""
 
-    def __init__(self, ws: WebSocket, max_queue: int) -> None:
+    def __init__(self, ws: WebSocket, max_queue: int, stream: FrameStream) -> None:
         self.ws = ws
         self.frame_at = 0.0
         self.max_queue = max_queue
+        self.stream = stream
         self.queue: deque[str] = deque()
-        self.frame: str | None = None
+        self.frame: Pending | None = None
+        self.want_full = False  # the client asked for a full frame (`resync`)
         self.overflowed = False
         self.gone = asyncio.Event()  # set when the viewer fell too far behind
         self.frames_sent = 0
@@ -70,14 +76,42 @@ class Viewer:
             self.queue.append(text)
         self._wake.set()
 
-    def push_frame(self, text: str) -> None:
-        """Replace any unsent frame with the newest one."""
+    def push_frame(self, message: Json, text: str) -> None:
+        """The next delta: merged into the unsent one if there is one."""
         if self.frame is not None:
             self.frames_dropped += 1
             STATS.frames_dropped += 1
-        self.frame = text
+            self.frame.add(message, self.stream)
+        else:
+            self.frame = Pending(message, text)
         self.frame_at = time.perf_counter()
         self._wake.set()
+
+    def push_last(self, message: Json, text: str) -> None:
+        """A mission's last frame, queued in order (never merged away): with any unsent one."""
+        if self.want_full:
+            self.want_full = False
+            self.frame = None
+            text = encode({"type": "frame", "wall": message["wall"], **self.stream.full()})
+        elif self.frame is not None:
+            self.frame.add(message, self.stream)
+            text = encode(self.frame.final(self.stream))
+            self.frame = None
+        self.push(text)
+
+    def resync(self) -> None:
+        """The client lost track (a gap in `seq`): its next frame is a full one."""
+        self.want_full = True
+        self._wake.set()
+
+    def _next_frame(self) -> str | None:
+        if self.want_full and self.stream.seq > 0:  # before any frame there is nothing to send
+            self.want_full, self.frame = False, None
+            return encode({"type": "frame", "wall": time.time(), **self.stream.full()})
+        if self.frame is None:
+            return None
+        pending, self.frame = self.frame, None
+        return pending.text if pending.text is not None else encode(pending.final(self.stream))
 
     async def pump(self) -> None:
         """Send queued messages in order, then the newest frame; return when dropped."""
@@ -88,8 +122,8 @@ class Viewer:
                 await self.ws.send_text(self.queue.popleft())
             if self.overflowed:
                 return
-            if self.frame is not None:
-                text, self.frame = self.frame, None
+            text = self._next_frame()
+            if text is not None:
                 STATS.frame_delays.append(time.perf_counter() - self.frame_at)
                 await self.ws.send_text(text)
                 self.frames_sent += 1
@@ -102,13 +136,14 @@ class Hub:
     def __init__(self, max_queue: int) -> None:
         self.max_queue = max_queue
         self.viewers: set[Viewer] = set()
+        self.stream = FrameStream()
 
     def __len__(self) -> int:
         return len(self.viewers)
 
     def join(self, ws: WebSocket, first: str) -> Viewer:
         """Register a viewer whose first message is `first` (its snapshot)."""
-        viewer = Viewer(ws, self.max_queue)
+        viewer = Viewer(ws, self.max_queue, self.stream)
         viewer.push(first)
         self.viewers.add(viewer)
         return viewer
@@ -124,22 +159,34 @@ class Hub:
                 v.push(text)
 
     def publish_frame(self, frame: dict[str, Any], last: bool = False) -> None:
-        """A state frame, stamped with the server's wall clock so clients can measure delay.
+        """The delta from the last frame to the engine's `frame`, stamped with the server's
+        wall clock so clients can measure delay; nothing if nothing changed.
 
         The `last` frame of a mission is queued like an event: it must not be dropped.
         """
+        delta = self.stream.advance(frame)
+        if delta is None and not last:
+            return
         if self.viewers:
-            text = encode({"type": "frame", "wall": time.time(), **frame})
+            body = delta if delta is not None else {**self.stream.full()}
+            message = {"type": "frame", "wall": time.time(), **body}
+            text = encode(message)
             for v in self.viewers:
                 if last:
-                    v.frame = None
-                    v.push(text)
+                    v.push_last(message, text)
                 else:
-                    v.push_frame(text)
+                    v.push_frame(message, text)
+
+    def sync(self, frame: dict[str, Any]) -> Json:
+        """Bring the stream up to `frame` (its delta goes to the current viewers) and return
+        the full state at the new `seq`, for a joining viewer's snapshot."""
+        self.publish_frame(frame)
+        return self.stream.full()
 
 
-async def _read_until_closed(ws: WebSocket, max_message: int) -> int | None:
-    """Consume client input; return a close code for bad input, None on a clean disconnect."""
+async def _read_until_closed(ws: WebSocket, viewer: Viewer, max_message: int) -> int | None:
+    """Consume client input (`{"type": "resync"}` asks for a full frame); return a close code
+    for bad input, None on a clean disconnect."""
     while True:
         msg = await ws.receive()
         if msg["type"] == "websocket.disconnect":
@@ -151,15 +198,17 @@ async def _read_until_closed(ws: WebSocket, max_message: int) -> int | None:
         if text is None:
             return CLOSE_BAD_DATA
         try:
-            json.loads(text)
+            message = json.loads(text)
         except (ValueError, RecursionError):  # 4 KB of '[' is deeper than the parser goes
             return CLOSE_BAD_DATA
+        if isinstance(message, dict) and message.get("type") == "resync":
+            viewer.resync()
 
 
 async def serve_viewer(ws: WebSocket, hub: Hub, viewer: Viewer, max_message: int) -> None:
     """Run one viewer until it leaves, misbehaves or falls behind; always unregister it."""
     pump = asyncio.create_task(viewer.pump())
-    reader = asyncio.create_task(_read_until_closed(ws, max_message))
+    reader = asyncio.create_task(_read_until_closed(ws, viewer, max_message))
     gone = asyncio.create_task(viewer.gone.wait())
     tasks = (pump, reader, gone)
     code: int | None = None

@@ -321,23 +321,32 @@ class MissionService:
     ) -> tuple[Hub, Viewer]:
         """Join a viewer to a mission's stream, its first message a snapshot.
 
-        For a live mission the pending stream is flushed, the snapshot taken and the viewer
-        joined in one hold of the gate, so the viewer misses nothing and sees nothing twice.
+        For a live mission the pending stream is flushed, the frame stream brought up to
+        date, the snapshot taken and the viewer joined in one hold of the gate, so the viewer
+        misses nothing and sees nothing twice: the snapshot carries the stream's `seq`, and
+        its robots the stream's (rounded) poses, so the next delta applies to it exactly.
+        A finished mission's snapshot has `seq` null (no deltas follow).
         """
         lm = self.runner.live.get(mission_id)
         if lm is None or lm.finishing or lm.row is None:
             row, state = await self.detail(mission_id)
             lm = self.runner.live.get(mission_id)
             if state is None or lm is None:
-                message = {"mission": render(row, None), "map": row.world_map}
+                message = {"mission": render(row, None), "map": row.world_map, "seq": None}
                 state = stream_state(row.final_state)
                 return self._join(mission_id, ws, {**message, "state": state})
             lm.row = lm.row or row
         with self.gate:
             self.runner.publish_pending(lm)
             m = lm.mission
+            full = self.runner.hub(mission_id).sync(m.frame())
+            lm.last_frame_t = float(m.now)
+            snap = m.snapshot()
+            streamed = {r["name"]: r for r in full["robots"]}
+            snap["robots"] = [{**r, **streamed.get(r["name"], {})} for r in snap["robots"]]
             message = {"mission": render(lm.row, live_state(lm)), "map": m.world_map()}
-            return self._join(mission_id, ws, {**message, "state": stream_state(m.snapshot())})
+            state = {**stream_state(snap), **{k: full[k] for k in ("scanned", "counters")}}
+            return self._join(mission_id, ws, {**message, "seq": full["seq"], "state": state})
 
     def _join(self, mission_id: int, ws: Any, message: dict[str, Any]) -> tuple[Hub, Viewer]:
         hub = self.runner.hub(mission_id)

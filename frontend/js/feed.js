@@ -1,10 +1,17 @@
-// The auction feed: one card per auction, newest first, updated as bids, awards and the close arrive.
+// The auction feed: one card per auction, newest first, updated as bids, awards and the close
+// arrive. Up to VIRTUAL_FROM auctions the newest MAX_CARDS cards are kept in the list; past
+// that the list is virtualized (virtual.js): every auction can be scrolled to, and only the
+// cards in view are in the DOM, each one line per part.
 
 import { h, fmt } from "./dom.js";
 import { KIND_LABEL } from "./palette.js";
-import { shortName } from "./mapdraw.js";
+import { shortName } from "./maprobots.js";
+import { VirtualRows } from "./virtual.js";
 
 const MAX_CARDS = 80;
+export const VIRTUAL_FROM = 200;
+const CARD_PX = 69; // a card's height in the virtualized list, its 5 px gap included
+const MAX_BIDS = 12; // bids shown on a card (a scaled-up mission has hundreds of bidders)
 
 export class AuctionFeed {
   constructor(list, countEl) {
@@ -12,12 +19,20 @@ export class AuctionFeed {
     this.countEl = countEl;
     this.records = new Map(); // id -> AuctionRecord
     this.cards = new Map(); // id -> <li>
+    this.order = []; // ids, first seen first (shown newest first)
+    this.openIds = new Set();
+    this.flashing = new Set();
+    this.virtual = null;
     this.now = 0;
   }
 
   reset() {
     this.records.clear();
     this.cards.clear();
+    this.order = [];
+    this.openIds.clear();
+    this.virtual = null;
+    this.list.classList.remove("virtual");
     this.list.replaceChildren();
     this._count();
   }
@@ -26,14 +41,23 @@ export class AuctionFeed {
   upsert(rec, { flash = true } = {}) {
     const old = this.records.get(rec.id);
     this.records.set(rec.id, rec);
+    if (!old) this.order.push(rec.id);
+    if (rec.status === "open") this.openIds.add(rec.id);
+    else this.openIds.delete(rec.id);
+    const changed = !old || old.status !== rec.status || old.bids.length !== rec.bids.length;
+    if (this.virtual || this.records.size > VIRTUAL_FROM) {
+      if (flash && changed) this.flashing.add(rec.id);
+      this.cards.delete(rec.id);
+      this._virtual();
+      this._count();
+      return;
+    }
     const card = this._card(rec);
     const prev = this.cards.get(rec.id);
     if (prev) prev.replaceWith(card);
     else this.list.prepend(card);
     this.cards.set(rec.id, card);
-    if (flash && (!old || old.status !== rec.status || old.bids.length !== rec.bids.length)) {
-      card.classList.add("flash");
-    }
+    if (flash && changed) card.classList.add("flash");
     while (this.list.children.length > MAX_CARDS) {
       const last = this.list.lastElementChild;
       this.cards.delete(last.dataset.auctionId);
@@ -48,17 +72,43 @@ export class AuctionFeed {
     for (const r of sorted) this.upsert(r, { flash: false });
   }
 
-  open() {
-    return [...this.records.values()].filter((r) => r.status === "open");
+  /** Many auctions: a virtual list, newest first; cards are built when they come into view. */
+  _virtual() {
+    if (!this.virtual) {
+      this.list.classList.add("virtual");
+      this.cards.clear();
+      this.virtual = new VirtualRows({
+        scroller: this.list,
+        body: this.list,
+        spacer: (px) => h("li", { class: "spacer", "aria-hidden": "true", style: `height:${px}px` }),
+        rowHeight: CARD_PX,
+        render: (i) => {
+          const id = this.order[this.order.length - 1 - i];
+          let card = this.cards.get(id);
+          if (!card) {
+            card = this._card(this.records.get(id));
+            if (this.flashing.delete(id)) card.classList.add("flash");
+            this.cards.set(id, card);
+          }
+          return card;
+        },
+      });
+    }
+    if (this.cards.size > 400) this.cards.clear(); // built again when scrolled to
+    this.virtual.count = this.order.length;
+    this.virtual.schedule();
   }
 
-  /** Refresh the running open time of open auctions. */
+  open() {
+    return [...this.openIds].map((id) => this.records.get(id));
+  }
+
+  /** Refresh the running open time of open auctions (those with a card). */
   tick(now) {
     this.now = now;
-    for (const r of this.records.values()) {
-      if (r.status !== "open") continue;
-      const el = this.cards.get(r.id)?.querySelector(".open-time");
-      if (el) el.textContent = `open ${fmt(Math.max(0, now - r.opened_at), 1)} s`;
+    for (const id of this.openIds) {
+      const el = this.cards.get(id)?.querySelector(".open-time");
+      if (el) el.textContent = `open ${fmt(Math.max(0, now - this.records.get(id).opened_at), 1)} s`;
     }
   }
 
@@ -73,7 +123,7 @@ export class AuctionFeed {
   }
 
   _count() {
-    const open = this.open().length;
+    const open = this.openIds.size;
     this.countEl.textContent = `${this.records.size} · ${open} open`;
   }
 
@@ -85,7 +135,9 @@ export class AuctionFeed {
     const winner = r.allocated_to || lastAccepted?.winner;
     // a re-announced auction collects a new round of bids each time: show the latest round
     const round = Math.max(0, ...r.bids.map((b) => b.round));
-    const bids = r.bids.filter((b) => b.round === round).map((b) =>
+    const latest = r.bids.filter((b) => b.round === round);
+    const shown = latest.length > MAX_BIDS ? [...latest].sort((a, b) => (b.utility ?? -Infinity) - (a.utility ?? -Infinity)).slice(0, MAX_BIDS) : latest;
+    const bids = shown.map((b) =>
       h(
         "span",
         { class: `bid${b.utility === null ? " inf" : ""}${b.bidder === winner ? " win" : ""}`, dataset: { bidder: b.bidder } },
@@ -116,7 +168,13 @@ export class AuctionFeed {
         r.reauction_of ? h("span", { class: "re", title: `re-auction of ${r.reauction_of}` }, "↻") : null,
         h("span", { class: "open-time", title: "announcement to close" }, openFor),
       ),
-      h("div", { class: "bids" }, round ? h("span", { class: "round" }, `round ${round + 1}:`) : null, bids.length ? bids : "waiting for bids…"),
+      h(
+        "div",
+        { class: "bids" },
+        round ? h("span", { class: "round" }, `round ${round + 1}:`) : null,
+        bids.length ? bids : "waiting for bids…",
+        latest.length > shown.length ? h("span", { class: "more" }, ` +${latest.length - shown.length} more`) : null,
+      ),
       awards.length || r.status !== "open"
         ? h(
             "div",

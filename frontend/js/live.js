@@ -3,7 +3,7 @@
 // the server's word only (status.js): frames move robots and the clock, never the status.
 
 import { $, clock, fmt, toast } from "./dom.js";
-import { get, qs } from "./api.js";
+import { get } from "./api.js";
 import { LiveStream } from "./stream.js";
 import { MapView } from "./mapview.js";
 import { AuctionFeed } from "./feed.js";
@@ -14,6 +14,8 @@ import { ENDED, LIVE, MissionStatus } from "./status.js";
 import { COUNTER_KEYS, loadFinal, showCounters, validId } from "./final.js";
 import { exposeLive } from "./liveexpose.js";
 import { Playback } from "./playback.js";
+import { FrameState } from "./framestate.js";
+import { loadHistory } from "./livehistory.js";
 
 const DETAIL_MS = 1000; // robot list (paths, tasks, distance) refresh while the stream runs
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
@@ -35,6 +37,8 @@ export class LiveView {
     this.poll = null;
     this.finalShown = null; // the id whose stored ending is shown
     this.state = this._empty();
+    this.frames = new FrameState(); // the stream's state: snapshot + deltas (framestate.js)
+    this.resyncAsked = false;
     // the parts below know this view only through these callbacks
     this.map = new MapView($("#map"), {
       onPick: (x, y) => this.playback.active || this.controls.pick(x, y), // none while looking back
@@ -61,7 +65,7 @@ export class LiveView {
     this.controls = new Controls({
       mission: () => ({ id: this.id, status: this.status.status, policy: this.status.policy, speed: this.status.speed, map: this.state.map }),
       onStatus: (m) => this.status.set(m),
-      onRobotsChanged: () => this._refreshDetail(),
+      onRobotsChanged: () => this._refreshDetail({ now: true }),
       showPick: (point) => this.map.setPick(point),
       toScreen: (x, y) => this.map.toScreen(x, y),
     });
@@ -148,7 +152,7 @@ export class LiveView {
     }
     if (!current()) return;
     this.stream.connect(id);
-    this._loadHistory();
+    loadHistory(id, { feed: this.feed, charts: this.charts, current: () => id === this.id });
     this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
   }
 
@@ -179,12 +183,15 @@ export class LiveView {
 
   /** One message from the live stream. */
   handle(msg) {
+    // frames are deltas: the stream's state follows every one, even while looking back
+    if (msg.type === "snapshot") this.frames.snapshot(msg);
+    if (msg.type === "frame" && !this._follow(msg)) return undefined;
     if (this.playback.intercept(msg)) return undefined; // looking back: the stream waits
     switch (msg.type) {
       case "snapshot":
         return this._snapshot(msg);
       case "frame":
-        return this._frame(msg);
+        return this._frame(this.frames.view());
       case "auction":
         return this.feed.upsert(msg.auction);
       case "event":
@@ -197,7 +204,17 @@ export class LiveView {
     }
   }
 
-  /** {mission: MissionRead, map: world map, state: Mission.snapshot() or null}. */
+  /** Apply a frame to the stream's state; after a gap, ask once for a full frame. */
+  _follow(msg) {
+    if (this.frames.apply(msg)) {
+      this.resyncAsked = false;
+      return true;
+    }
+    if (!this.resyncAsked) this.resyncAsked = this.stream.send({ type: "resync" });
+    return false;
+  }
+
+  /** {mission: MissionRead, map: world map, seq, state: Mission.snapshot() or null}. */
   _snapshot(msg) {
     const m = msg.mission;
     // `state` is null only when the server crashed before storing one: nothing at the record's time
@@ -225,17 +242,22 @@ export class LiveView {
     s.counters = f.counters;
     const robots = f.robots;
     // keep only the per-frame fields: task, distance and path come from the robot list
-    for (const r of robots) s.robots.set(r.name, pick(r, FRAME_FIELDS));
-    for (const name of [...s.robots.keys()]) if (!robots.some((r) => r.name === name)) s.robots.delete(name);
+    const names = new Set();
+    for (const r of robots) {
+      names.add(r.name);
+      s.robots.set(r.name, pick(r, FRAME_FIELDS));
+    }
+    for (const name of [...s.robots.keys()]) if (!names.has(name)) s.robots.delete(name);
     this.map.setRobots(robots, { snap });
-    if (f.scanned) this.map.setScanned(f.scanned);
+    if (f.scannedBits) this.map.setScannedBits(f.scannedBits);
+    else if (f.scanned) this.map.setScanned(f.scanned);
     const canvas = $("#map");
     canvas.dataset.robotCount = String(robots.length);
     canvas.dataset.frameCount = String(s.frames);
     $("#live-time").textContent = clock(s.t);
     this.feed.tick(s.t);
     this.map.setOpenAuctions(this.feed.open());
-    this.table.update([...s.robots.values()].map((r) => ({ ...s.detail.get(r.name), ...r })));
+    this.table.update([...s.robots.values()], s.detail);
     this._counters(f);
     this.charts.onFrame({ t: s.t, counters: s.counters });
   }
@@ -262,14 +284,14 @@ export class LiveView {
         break;
       case "policy_changed": // {old, new}
         this.status.set({ policy: d.new });
-        this._refreshDetail();
+        this._refreshDetail({ now: true });
         break;
       case "robot_added":
       case "robot_failed":
       case "robot_disabled":
       case "robot_enabled":
       case "failure_detected":
-        this._refreshDetail();
+        this._refreshDetail({ now: true });
         break;
       default:
         break;
@@ -309,12 +331,16 @@ export class LiveView {
     const robots = [...s.robots.values()];
     this.map.setRobots(robots, { polled: true });
     $("#map").dataset.robotCount = String(robots.length);
-    this.table.update(robots.map((r) => ({ ...s.detail.get(r.name), ...r })));
+    this.table.update(robots, s.detail);
   }
 
-  async _refreshDetail() {
+  async _refreshDetail({ now = false } = {}) {
     const id = this.id;
     if (!id || document.hidden || this.playback.active) return; // looking back: not now
+    // a big team's list (paths and all) is read less often: every 1 s up to 200 robots, up to 5 s
+    const every = Math.min(5000, DETAIL_MS * Math.max(1, this.state.robots.size / 200));
+    if (!now && performance.now() - (this.detailAt || 0) < every - 50) return;
+    this.detailAt = performance.now();
     try {
       const list = await get(`/missions/${encodeURIComponent(id)}/robots`); // [RobotRead]
       if (id !== this.id || this.finalShown === id) return; // may predate the ending
@@ -365,27 +391,5 @@ export class LiveView {
     this.charts.final = false;
     delete $("#live").dataset.final;
     if (resumed && this.id && !this.poll) this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
-  }
-
-  async _loadHistory() {
-    const id = this.id;
-    try {
-      // the API lists auctions oldest first: read the total, then the newest page
-      const path = `/missions/${encodeURIComponent(id)}/auctions`;
-      const head = await get(`${path}${qs({ limit: 1 })}`);
-      const offset = Math.max(0, head.total - 200);
-      const data = offset ? await get(`${path}${qs({ limit: 200, offset })}`) : await get(`${path}${qs({ limit: 200 })}`);
-      if (id !== this.id) return;
-      this.feed.load(data.items);
-    } catch {
-      /* the stream carries new auctions anyway */
-    }
-    try {
-      const data = await get(`/missions/${encodeURIComponent(id)}/events${qs({ kind: "delivered", limit: 1000 })}`);
-      if (id !== this.id) return;
-      this.charts.loadDeliveries(data.items);
-    } catch {
-      /* the chart fills from frames */
-    }
   }
 }

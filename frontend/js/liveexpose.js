@@ -42,6 +42,19 @@ export function exposeLive(view) {
     get drawn() {
       return view.map.drawn ?? null;
     },
+    /** The stream's own state (snapshot + deltas): {seq, t, status, policy, robots, counters, scanned_count}. */
+    get stream() {
+      const f = view.frames;
+      return { seq: f.seq, ...f.head, robots: [...f.robots.values()].map((r) => ({ ...r })), counters: { ...f.counters }, scanned_count: f.scannedCount };
+    },
+    /** How many times the map was drawn (one per animation frame while anything moves). */
+    get mapDraws() {
+      return view.map.draws || 0;
+    },
+    /** Script time spent drawing the map, in total (ms). */
+    get mapDrawMs() {
+      return view.map.drawMs || 0;
+    },
     pagePoint: (x, y) => view.map.pagePoint(x, y),
   };
 }

@@ -1,28 +1,40 @@
-// Drawing the map scene: area, scanned cells, craters, plant, sites, paths, pairs, robots.
+// Drawing the map scene: area, scanned cells, craters, plant, sites, dropped minerals, open
+// auctions; the robots, their paths and pairs are maprobots.js's.
 
 import { Labels, label } from "./maplabels.js";
-import { FAILED_COLOUR, KIND_COLOUR, PLANT_COLOUR, SITE_COLOUR, TYPE_COLOUR, robotType, traceShape } from "./palette.js";
+import { FAILED_COLOUR, KIND_COLOUR, PLANT_COLOUR, SITE_COLOUR } from "./palette.js";
+import { around, drawPairs, drawPaths, drawRobots, withAlpha } from "./maprobots.js";
 
-const DOWN = new Set(["failed", "disabled"]);
-export const WORKING = new Set(["digging", "loading", "unloading"]);
+const SCANNED_MS = 250;
 
-export function shortName(name) {
-  const m = /^([a-z])[a-z]*-(\d+)$/.exec(name);
-  return m ? `${m[1].toUpperCase()}${m[2]}` : name;
-}
-
-export function drawScene(ctx, mv, poses) {
-  const { map } = mv;
-  const { scene } = mv;
-  const s = mv.view.scale;
-  const P = (x, y) => mv.toScreen(x, y);
+/** The layer that moves only with the view or the scanned cells (area, scanned cells, grid,
+ * craters, plant), kept in an offscreen canvas and redrawn only when one of those changes. */
+function background(mv) {
+  const { canvas, map, scene, view, dpr } = mv;
+  const place = `${canvas.width}x${canvas.height}@${dpr}:${view.scale},${view.ox},${view.oy}`;
+  const key = `${place}:${scene.scannedVersion || 0}`;
+  let bg = mv.bg;
+  if (bg && bg.key === key) return bg.canvas;
+  // newly scanned cells alone redraw it at most 4 times a second (a moved view at once)
   const now = performance.now();
-
+  if (bg && bg.key.startsWith(`${place}:`) && now - bg.at < SCANNED_MS) return bg.canvas;
+  if (!bg || bg.canvas.width !== canvas.width || bg.canvas.height !== canvas.height) {
+    const c = document.createElement("canvas");
+    c.width = canvas.width;
+    c.height = canvas.height;
+    bg = mv.bg = { canvas: c, key: "" };
+  }
+  bg.key = key;
+  bg.at = now;
+  const ctx = bg.canvas.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  ctx.clearRect(0, 0, canvas.width, canvas.height);
+  const s = view.scale;
+  const P = (x, y) => mv.toScreen(x, y);
   // area
   const [x0, y0] = P(0, map.height);
   ctx.fillStyle = "#11161d";
   ctx.fillRect(x0, y0, map.width * s, map.height * s);
-
   // scanned cells (one image pixel per cell, scaled without smoothing)
   if (scene.scanned) {
     ctx.imageSmoothingEnabled = false;
@@ -49,20 +61,18 @@ export function drawScene(ctx, mv, poses) {
   ctx.strokeStyle = "#3a4655";
   ctx.lineWidth = 1;
   ctx.strokeRect(x0 + 0.5, y0 + 0.5, map.width * s, map.height * s);
-  drawScale(ctx, mv);
-
-  // craters
+  // craters: one path
+  ctx.beginPath();
   for (const o of map.obstacles) {
     const [cx, cy] = P(o.x, o.y);
-    ctx.beginPath();
+    ctx.moveTo(cx + o.r * s, cy);
     ctx.arc(cx, cy, o.r * s, 0, 2 * Math.PI);
-    ctx.fillStyle = "#06080b";
-    ctx.fill();
-    ctx.strokeStyle = "#4a5666";
-    ctx.lineWidth = 1.5;
-    ctx.stroke();
   }
-
+  ctx.fillStyle = "#06080b";
+  ctx.fill();
+  ctx.strokeStyle = "#4a5666";
+  ctx.lineWidth = 1.5;
+  ctx.stroke();
   // plant
   const [px, py] = P(map.plant.x, map.plant.y);
   const pr = Math.max(7, 1.8 * s);
@@ -77,16 +87,37 @@ export function drawScene(ctx, mv, poses) {
   ctx.strokeStyle = PLANT_COLOUR;
   ctx.lineWidth = 1.5;
   ctx.stroke();
+  drawScale(ctx, mv);
+  return bg.canvas;
+}
+
+export function drawScene(ctx, mv, poses) {
+  const { map } = mv;
+  const { scene } = mv;
+  const s = mv.view.scale;
+  const P = (x, y) => mv.toScreen(x, y);
+  const now = performance.now();
+
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.drawImage(background(mv), 0, 0);
+  ctx.restore();
+
+  const [px, py] = P(map.plant.x, map.plant.y);
+  const pr = Math.max(7, 1.8 * s);
   const labels = new Labels(ctx);
   labels.block(px, py, pr);
   labels.add("plant", [[px, py + pr + 11, "center"], [px, py - pr - 3, "center"]], "#c9d4e0");
   const siteLabels = drawSites(ctx, mv, P, s, labels);
 
-  // dropped minerals
-  for (const d of scene.dropped) {
-    const [dx, dy] = P(d.x, d.y);
+  // dropped minerals: one path
+  if (scene.dropped.length) {
     ctx.beginPath();
-    ctx.arc(dx, dy, 3.5, 0, 2 * Math.PI);
+    for (const d of scene.dropped) {
+      const [dx, dy] = P(d.x, d.y);
+      ctx.moveTo(dx + 3.5, dy);
+      ctx.arc(dx, dy, 3.5, 0, 2 * Math.PI);
+    }
     ctx.fillStyle = SITE_COLOUR;
     ctx.fill();
     ctx.strokeStyle = FAILED_COLOUR;
@@ -94,16 +125,20 @@ export function drawScene(ctx, mv, poses) {
     ctx.stroke();
   }
 
-  // open auctions: a pulsing ring where the task is
+  // open auctions: a pulsing ring where the task is (one path per kind)
   const pulse = (now % 1600) / 1600;
+  const rings = new Map();
   for (const a of scene.openAuctions) {
     if (!a.location) continue;
     const [ax, ay] = P(a.location[0], a.location[1]);
-    ctx.beginPath();
-    ctx.arc(ax, ay, 6 + pulse * 10, 0, 2 * Math.PI);
-    ctx.strokeStyle = withAlpha(KIND_COLOUR[a.kind] || "#ffffff", 1 - pulse);
-    ctx.lineWidth = 2;
-    ctx.stroke();
+    const ring = rings.get(a.kind) || rings.set(a.kind, new Path2D()).get(a.kind);
+    ring.moveTo(ax + 6 + pulse * 10, ay);
+    ring.arc(ax, ay, 6 + pulse * 10, 0, 2 * Math.PI);
+  }
+  ctx.lineWidth = 2;
+  for (const [kind, ring] of rings) {
+    ctx.strokeStyle = withAlpha(KIND_COLOUR[kind] || "#ffffff", 1 - pulse);
+    ctx.stroke(ring);
   }
 
   // the point the operator picked
@@ -124,7 +159,7 @@ export function drawScene(ctx, mv, poses) {
   const robotLabels = drawRobots(ctx, mv, poses, P, s, now, labels);
   // robots' names first, then the sites' counts, none over another or over a glyph
   for (const [text, c, colour] of [...robotLabels, ...siteLabels]) labels.add(text, c, colour);
-  mv.drawn = { ...labels.draw(), order: robotLabels.order };
+  mv.drawn = { ...labels.draw(), order: robotLabels.order, batches: robotLabels.batches, onScreen: robotLabels.onScreen };
 }
 
 function drawScale(ctx, mv) {
@@ -144,190 +179,54 @@ function drawScale(ctx, mv) {
   label(ctx, "10 m", x + len / 2, y + 12, "#a3b1c2");
 }
 
-/** Draws the sites; returns their labels ([text, candidates, colour]) for placing. */
+/** Draws the sites (one path per look); returns their labels ([text, candidates, colour]). */
 function drawSites(ctx, mv, P, s, labels) {
   const { scene, map } = mv;
   const r = Math.max(5, 1.2 * s);
   const out = [];
   if (scene.options.truth) {
+    const hidden = new Path2D();
     for (const site of map.sites) {
       const known = scene.sites.get(site.id);
       if (known && known.found) continue;
       const [sx, sy] = P(site.x, site.y);
-      ctx.setLineDash([3, 3]);
-      ctx.beginPath();
-      ctx.arc(sx, sy, r, 0, 2 * Math.PI);
-      ctx.strokeStyle = withAlpha(SITE_COLOUR, 0.6);
-      ctx.lineWidth = 1.5;
-      ctx.stroke();
-      ctx.setLineDash([]);
+      hidden.moveTo(sx + r, sy);
+      hidden.arc(sx, sy, r, 0, 2 * Math.PI);
       out.push([String(site.minerals), around(sx, sy, r + 2), withAlpha(SITE_COLOUR, 0.7)]);
     }
+    ctx.setLineDash([3, 3]);
+    ctx.strokeStyle = withAlpha(SITE_COLOUR, 0.6);
+    ctx.lineWidth = 1.5;
+    ctx.stroke(hidden);
+    ctx.setLineDash([]);
   }
+  const full = new Path2D();
+  const empty = new Path2D();
+  const k = r * 1.25;
   for (const site of scene.sites.values()) {
     if (!site.found) continue;
     const [sx, sy] = P(site.x, site.y);
-    const empty = site.remaining === 0;
-    ctx.beginPath();
-    ctx.moveTo(sx, sy - r * 1.25);
-    ctx.lineTo(sx + r * 1.25, sy);
-    ctx.lineTo(sx, sy + r * 1.25);
-    ctx.lineTo(sx - r * 1.25, sy);
-    ctx.closePath();
-    ctx.fillStyle = empty ? "#2a3441" : withAlpha(SITE_COLOUR, 0.9);
-    ctx.fill();
-    ctx.strokeStyle = empty ? "#6e7d8f" : "#0d1117";
-    ctx.lineWidth = 1;
-    ctx.stroke();
-    labels.block(sx, sy, r * 1.25);
+    const none = site.remaining === 0;
+    const path = none ? empty : full;
+    path.moveTo(sx, sy - k);
+    path.lineTo(sx + k, sy);
+    path.lineTo(sx, sy + k);
+    path.lineTo(sx - k, sy);
+    path.closePath();
+    labels.block(sx, sy, k);
     const text = site.total ? `${site.remaining}/${site.total}` : String(site.remaining ?? "");
-    out.push([text, around(sx, sy, r * 1.25 + 2), empty ? "#8796a8" : SITE_COLOUR]);
+    out.push([text, around(sx, sy, k + 2), none ? "#8796a8" : SITE_COLOUR]);
   }
+  ctx.lineWidth = 1;
+  ctx.fillStyle = withAlpha(SITE_COLOUR, 0.9);
+  ctx.fill(full);
+  ctx.strokeStyle = "#0d1117";
+  ctx.stroke(full);
+  ctx.fillStyle = "#2a3441";
+  ctx.fill(empty);
+  ctx.strokeStyle = "#6e7d8f";
+  ctx.stroke(empty);
   return out;
 }
 
-/** Spots for a label beside a glyph of radius r at (x, y): right, left, below, above. */
-function around(x, y, r) {
-  return [
-    [x + r + 2, y + 4, "left"],
-    [x - r - 2, y + 4, "right"],
-    [x, y + r + 11, "center"],
-    [x, y - r - 3, "center"],
-  ];
-}
 
-function drawPaths(ctx, mv, poses, P) {
-  for (const [name, d] of mv.scene.detail) {
-    const pose = poses.get(name);
-    if (!pose || !Array.isArray(d.path) || d.path.length < 2 || DOWN.has(pose.state)) continue;
-    // start from the segment the robot is on now; the detail list is refreshed about once a second
-    let best = 0;
-    let bestD = Infinity;
-    for (let i = 0; i < d.path.length - 1; i++) {
-      const dd = segDist(pose.x, pose.y, d.path[i], d.path[i + 1]);
-      if (dd < bestD) {
-        bestD = dd;
-        best = i;
-      }
-    }
-    ctx.beginPath();
-    ctx.moveTo(...P(pose.x, pose.y));
-    for (let i = best + 1; i < d.path.length; i++) ctx.lineTo(...P(d.path[i][0], d.path[i][1]));
-    ctx.strokeStyle = withAlpha(TYPE_COLOUR[robotType(pose)] || "#fff", 0.55);
-    ctx.setLineDash([5, 4]);
-    ctx.lineWidth = 1.5;
-    ctx.stroke();
-    ctx.setLineDash([]);
-    const end = d.path[d.path.length - 1];
-    const [ex, ey] = P(end[0], end[1]);
-    ctx.beginPath();
-    ctx.arc(ex, ey, 2.5, 0, 2 * Math.PI);
-    ctx.fillStyle = withAlpha(TYPE_COLOUR[robotType(pose)] || "#fff", 0.8);
-    ctx.fill();
-  }
-}
-
-function drawPairs(ctx, mv, poses, P) {
-  // Policy 2 coalitions: a double line between each excavator and its hauler
-  for (const [name, d] of mv.scene.detail) {
-    if (!d.partner || robotType(d) !== "excavator") continue;
-    const a = poses.get(name);
-    const b = poses.get(d.partner);
-    if (!a || !b) continue;
-    ctx.beginPath();
-    ctx.moveTo(...P(a.x, a.y));
-    ctx.lineTo(...P(b.x, b.y));
-    ctx.strokeStyle = "rgba(240,228,66,0.55)";
-    ctx.setLineDash([1, 3]);
-    ctx.lineWidth = 2;
-    ctx.stroke();
-    ctx.setLineDash([]);
-  }
-}
-
-/** Draws the robots (one that is down last, on top: a failed robot must never hide under a
- * working one); returns their labels ([text, candidates, colour]) for placing. */
-function drawRobots(ctx, mv, poses, P, s, now, labels) {
-  const r = Math.min(11, Math.max(6, 0.9 * s));
-  const scanR = mv.map.grid.cell_w / Math.SQRT2;
-  const isDown = (rb) => DOWN.has(rb.state) || rb.alive === false;
-  const list = [...poses.values()].sort((a, b) => Number(isDown(a)) - Number(isDown(b)));
-  const names = [];
-  for (const rb of list) {
-    const type = robotType(rb);
-    const colour = TYPE_COLOUR[type] || TYPE_COLOUR.other;
-    const [x, y] = P(rb.x, rb.y);
-    const down = DOWN.has(rb.state) || rb.alive === false;
-    if (rb.state === "scanning") {
-      ctx.beginPath();
-      ctx.arc(x, y, scanR * s, 0, 2 * Math.PI);
-      ctx.fillStyle = "rgba(86,180,233,0.08)";
-      ctx.fill();
-      ctx.strokeStyle = "rgba(86,180,233,0.35)";
-      ctx.lineWidth = 1;
-      ctx.stroke();
-    }
-    if (WORKING.has(rb.state)) {
-      ctx.beginPath();
-      ctx.arc(x, y, r + 5, 0, 2 * Math.PI);
-      ctx.setLineDash([4, 4]);
-      ctx.lineDashOffset = -(now / 60) % 8;
-      ctx.strokeStyle = "#ffffff";
-      ctx.lineWidth = 1.5;
-      ctx.stroke();
-      ctx.setLineDash([]);
-      ctx.lineDashOffset = 0;
-    }
-    ctx.save();
-    ctx.translate(x, y);
-    ctx.rotate(-(rb.heading || 0)); // world angles run anticlockwise with y up
-    traceShape(ctx, type, r);
-    const idle = rb.state === "idle";
-    ctx.fillStyle = down ? "#3a3f46" : idle ? "#11161d" : colour;
-    ctx.fill();
-    ctx.lineWidth = idle ? 2 : 1.2;
-    ctx.strokeStyle = down ? "#8796a8" : idle ? colour : "#0d1117";
-    if (rb.state === "disabled") ctx.setLineDash([3, 2]);
-    ctx.stroke();
-    ctx.setLineDash([]);
-    ctx.restore();
-    if ((rb.load || 0) > 0) {
-      ctx.beginPath();
-      ctx.arc(x, y, Math.max(2.5, r * 0.32), 0, 2 * Math.PI);
-      ctx.fillStyle = SITE_COLOUR;
-      ctx.fill();
-      ctx.strokeStyle = "#0d1117";
-      ctx.lineWidth = 1;
-      ctx.stroke();
-    }
-    if (rb.state === "failed" || rb.alive === false) {
-      ctx.strokeStyle = FAILED_COLOUR;
-      ctx.lineWidth = 3;
-      ctx.beginPath();
-      ctx.moveTo(x - r, y - r);
-      ctx.lineTo(x + r, y + r);
-      ctx.moveTo(x + r, y - r);
-      ctx.lineTo(x - r, y + r);
-      ctx.stroke();
-    }
-    labels.block(x, y, r);
-    const spots = [[x, y - r - 4, "center"], ...around(x, y, r)];
-    // a robot that is down is named first, so a crowd never hides it
-    if (mv.scene.options.labels) names[down ? "unshift" : "push"]([shortName(rb.name), spots, down ? "#ffb38a" : "#e6edf3"]);
-  }
-  names.order = list.map((rb) => rb.name); // the drawing order, bottom to top
-  return names;
-}
-
-function segDist(x, y, a, b) {
-  const dx = b[0] - a[0];
-  const dy = b[1] - a[1];
-  const l2 = dx * dx + dy * dy;
-  const t = l2 ? Math.max(0, Math.min(1, ((x - a[0]) * dx + (y - a[1]) * dy) / l2)) : 0;
-  return Math.hypot(x - (a[0] + t * dx), y - (a[1] + t * dy));
-}
-
-export function withAlpha(hex, a) {
-  const n = Number.parseInt(hex.slice(1), 16);
-  return `rgba(${(n >> 16) & 255},${(n >> 8) & 255},${n & 255},${a.toFixed(3)})`;
-}

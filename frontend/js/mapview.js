@@ -1,7 +1,8 @@
 // The live map: a Canvas 2D view of the area to scale, with zoom (wheel, +/-), pan (drag,
 // arrow keys), smooth robot motion between frames, and click-to-pick a point.
 
-import { WORKING, drawScene } from "./mapdraw.js";
+import { drawScene } from "./mapdraw.js";
+import { WORKING } from "./maprobots.js";
 
 const DRAG_PX = 4; // a press that moves less than this is a click, not a pan
 
@@ -125,13 +126,19 @@ export class MapView {
   /** The scanned-cell bitmask (base64, row-major, bit i = cell i) as a tiny image. */
   setScanned(b64) {
     if (!this.map || !b64) return;
-    const { cols, rows } = this.map.grid;
     let bytes;
     try {
       bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
     } catch {
       return;
     }
+    this.setScannedBits(bytes);
+  }
+
+  /** The same bitmask as bytes. */
+  setScannedBits(bytes) {
+    if (!this.map) return;
+    const { cols, rows } = this.map.grid;
     let off = this.scene.scanned;
     if (!off || off.width !== cols || off.height !== rows) {
       off = document.createElement("canvas");
@@ -153,6 +160,7 @@ export class MapView {
       img.data[p + 3] = 46;
     }
     g.putImageData(img, 0, 0);
+    this.scene.scannedVersion = (this.scene.scannedVersion || 0) + 1; // the background redraws
     this.dirty = true;
   }
 
@@ -226,6 +234,8 @@ export class MapView {
       const rect = c.getBoundingClientRect();
       const [wx, wy] = this.toWorld(e.clientX - rect.left, e.clientY - rect.top);
       this.onCursor(wx, wy);
+      this.cursor = { x: wx, y: wy }; // a dense map names the robot under the cursor
+      this.dirty = true;
       if (!press) return;
       const dx = e.clientX - press.x;
       const dy = e.clientY - press.y;
@@ -248,7 +258,10 @@ export class MapView {
       if (wx < 0 || wy < 0 || wx > this.map.width || wy > this.map.height) return;
       this.onPick(wx, wy, sx, sy);
     });
-    c.addEventListener("pointerleave", () => this.onCursor(null, null));
+    c.addEventListener("pointerleave", () => {
+      this.cursor = null;
+      this.onCursor(null, null);
+    });
     c.addEventListener(
       "wheel",
       (e) => {
@@ -296,15 +309,18 @@ export class MapView {
   /** Poses of every robot as drawn at this instant. */
   poses(now = performance.now()) {
     const out = new Map();
-    for (const [name, r] of this.scene.robots) out.set(name, { ...r, ...(this._pose(name, now) || {}) });
+    for (const [name, r] of this.scene.robots) {
+      const pose = this._pose(name, now);
+      out.set(name, pose ? Object.assign({}, r, pose) : r);
+    }
     return out;
   }
 
   /** The drawn robot nearest map point (x, y) within `px` screen pixels, or null. */
-  robotAt(x, y, px = 12) {
+  robotAt(x, y, px = 12, poses = this.poses()) {
     const reach = px / this.view.scale;
     let best = null;
-    for (const p of this.poses().values()) {
+    for (const p of poses.values()) {
       const d = Math.hypot(p.x - x, p.y - y);
       if (d < reach && (!best || d < best.d)) best = { d, p };
     }
@@ -341,11 +357,14 @@ export class MapView {
   }
 
   draw() {
+    const t0 = performance.now();
     this.dirty = false;
     const { ctx, canvas } = this;
     ctx.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
     ctx.clearRect(0, 0, canvas.width, canvas.height);
-    if (!this.map) return;
-    drawScene(ctx, this, this.poses());
+    if (this.map) drawScene(ctx, this, this.poses());
+    // for the bench: how often the map is drawn, and the script time it takes
+    this.draws = (this.draws || 0) + 1;
+    this.drawMs = (this.drawMs || 0) + performance.now() - t0;
   }
 }

@@ -52,6 +52,40 @@ export function traceShape(ctx, type, r) {
   }
 }
 
+/**
+ * Add the type's shape to `path` (a Path2D or a context), centred on (x, y), turned by
+ * `heading` (world angles, anticlockwise with y up): many robots go in one path, drawn with
+ * one fill and one stroke.
+ */
+export function addShape(path, type, r, x, y, heading) {
+  const c = Math.cos(heading);
+  const s = -Math.sin(heading); // sin(-heading): canvas y points down
+  const X = (px, py) => x + px * c - py * s;
+  const Y = (px, py) => y + px * s + py * c;
+  const outline = type === "scout" ? SCOUT : type === "excavator" ? BODY : type === "hauler" ? null : OTHER;
+  if (outline) {
+    path.moveTo(X(outline[0] * r, outline[1] * r), Y(outline[0] * r, outline[1] * r));
+    for (let i = 2; i < outline.length; i += 2) path.lineTo(X(outline[i] * r, outline[i + 1] * r), Y(outline[i] * r, outline[i + 1] * r));
+    path.closePath();
+  }
+  if (type === "excavator") {
+    path.moveTo(X(BLADE[0] * r, BLADE[1] * r), Y(BLADE[0] * r, BLADE[1] * r));
+    for (let i = 2; i < BLADE.length; i += 2) path.lineTo(X(BLADE[i] * r, BLADE[i + 1] * r), Y(BLADE[i] * r, BLADE[i + 1] * r));
+  } else if (type === "hauler") {
+    path.moveTo(X(r * COS45, r * SIN45), Y(r * COS45, r * SIN45));
+    path.arc(x, y, r, 0.45 - heading, 2 * Math.PI - 0.45 - heading);
+    path.lineTo(X(r * 1.35, 0), Y(r * 1.35, 0));
+    path.closePath();
+  }
+}
+// the shapes of traceShape, as outlines of unit radius (x, y pairs)
+const SCOUT = [1.25, 0, -0.85, 0.85, -0.4, 0, -0.85, -0.85];
+const BODY = [-0.85, -0.85, 0.85, -0.85, 0.85, 0.85, -0.85, 0.85];
+const BLADE = [0.85, -0.55, 1.35, -0.7, 1.35, 0.7, 0.85, 0.55];
+const OTHER = [0, -1, 1, 0, 0, 1, -1, 0];
+const COS45 = Math.cos(0.45);
+const SIN45 = Math.sin(0.45);
+
 /** A small canvas glyph for tables and the legend (same shapes as the map). */
 export function glyph(type, size = 14, variant = "") {
   const c = document.createElement("canvas");

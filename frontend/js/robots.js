@@ -1,19 +1,28 @@
 // The robot list: name, type, state, task, load, distance, with Disable / Fail / Enable.
-// Rows are updated in place so keyboard focus survives the 10 Hz frames.
+// Rows are updated in place so keyboard focus survives the 10 Hz frames. Past VIRTUAL_FROM
+// robots the list is virtualized (virtual.js): only the rows in view are in the DOM.
 
 import { h, fmt } from "./dom.js";
 import { glyph, robotType } from "./palette.js";
+import { VirtualRows } from "./virtual.js";
+
+export const VIRTUAL_FROM = 80;
+const ROW_PX = 27; // a row's height in the compact table (CSS pins it when virtualized)
 
 const DOWN = new Set(["failed", "disabled"]);
 const ORDER = { scout: 0, excavator: 1, hauler: 2 };
 
+const KEYS = new Map(); // name -> [type order, number]: computed once per robot
+function sortKey(r) {
+  let k = KEYS.get(r.name);
+  if (!k) KEYS.set(r.name, (k = [ORDER[robotType(r)] ?? 9, Number(/\d+$/.exec(r.name)?.[0] ?? 0)]));
+  return k;
+}
+
 function byName(a, b) {
-  const ta = ORDER[robotType(a)] ?? 9;
-  const tb = ORDER[robotType(b)] ?? 9;
-  if (ta !== tb) return ta - tb;
-  const na = Number(/\d+$/.exec(a.name)?.[0] ?? 0);
-  const nb = Number(/\d+$/.exec(b.name)?.[0] ?? 0);
-  return na - nb || a.name.localeCompare(b.name);
+  const [ta, na] = sortKey(a);
+  const [tb, nb] = sortKey(b);
+  return ta - tb || na - nb || a.name.localeCompare(b.name);
 }
 
 export class RobotTable {
@@ -24,10 +33,17 @@ export class RobotTable {
     this.rows = new Map(); // name -> {tr, cells, buttons, type}
     this.canControl = false;
     this.finished = false;
+    this.sorted = [];
+    this.names = ""; // the names last sorted, joined: the order is kept until they change
+    this.virtual = null;
   }
 
   reset() {
     this.rows.clear();
+    this.sorted = [];
+    this.names = "";
+    this.virtual = null;
+    this.tbody.closest("table")?.classList.remove("virtual");
     this.tbody.replaceChildren();
   }
 
@@ -37,28 +53,82 @@ export class RobotTable {
     for (const row of this.rows.values()) this._buttons(row);
   }
 
-  /** robots: merged frame + detail dicts (name, type, state, task, load, distance, alive, enabled). */
-  update(robots) {
-    const sorted = [...robots].sort(byName);
-    let changedOrder = sorted.length !== this.rows.size;
+  /** robots: frame dicts (name, type, state, load, alive), merged with `detail` (the robot
+   * list's task, distance, enabled by name) for the rows that are filled. */
+  update(robots, detail = null) {
+    this.detail = detail;
+    const key = robots.map((r) => r.name).join(",");
+    let changedOrder = key !== this.names;
+    if (changedOrder) {
+      this.names = key;
+      this.sorted = [...robots].sort(byName);
+    } else {
+      const by = new Map(robots.map((r) => [r.name, r]));
+      this.sorted = this.sorted.map((r) => by.get(r.name));
+    }
+    const sorted = this.sorted;
+    if (sorted.length > VIRTUAL_FROM) return this._virtual(sorted);
+    if (this.virtual) {
+      this.virtual = null;
+      this.tbody.closest("table")?.classList.remove("virtual");
+      changedOrder = true;
+    }
+    const names = new Set();
     for (const r of sorted) {
+      names.add(r.name);
       let row = this.rows.get(r.name);
       if (!row) {
         row = this._row(r);
         this.rows.set(r.name, row);
         changedOrder = true;
       }
-      this._fill(row, r);
+      this._fill(row, this._merged(r));
     }
     for (const name of [...this.rows.keys()]) {
-      if (!sorted.some((r) => r.name === name)) {
+      if (!names.has(name)) {
         this.rows.get(name).tr.remove();
         this.rows.delete(name);
         changedOrder = true;
       }
     }
     if (changedOrder) this.tbody.replaceChildren(...sorted.map((r) => this.rows.get(r.name).tr));
-    const down = sorted.filter((r) => DOWN.has(r.state)).length;
+    this._count(sorted);
+    return undefined;
+  }
+
+  /** Many robots: rows only for those in view (built on first sight, then kept and refilled). */
+  _virtual(sorted) {
+    if (!this.virtual) {
+      const table = this.tbody.closest("table");
+      table.classList.add("virtual");
+      this.headPx = table.tHead?.offsetHeight ?? 0; // read once: no layout on every frame
+      this.virtual = new VirtualRows({
+        scroller: table.parentElement,
+        body: this.tbody,
+        spacer: (px) => h("tr", { class: "spacer", style: `height:${px}px` }, h("td", { colspan: "6" })),
+        rowHeight: ROW_PX,
+        offset: () => this.headPx,
+        render: (i) => {
+          const r = this.sorted[i];
+          let row = this.rows.get(r.name);
+          if (!row) this.rows.set(r.name, (row = this._row(r)));
+          this._fill(row, this._merged(r));
+          return row.tr;
+        },
+      });
+    }
+    this.virtual.update(sorted.length);
+    this._count(sorted);
+  }
+
+  _merged(r) {
+    const d = this.detail?.get(r.name);
+    return d ? { ...d, ...r } : r;
+  }
+
+  _count(sorted) {
+    let down = 0;
+    for (const r of sorted) if (DOWN.has(r.state)) down += 1;
     this.countEl.textContent = `${sorted.length}${down ? ` · ${down} down` : ""}`;
   }
 

@@ -53,6 +53,13 @@ export class LiveStream {
     ws.onerror = () => {};
   }
 
+  /** Send a message to the server (`{type: "resync"}`); false if the stream is not open. */
+  send(msg) {
+    if (!this.ws || this.ws.readyState !== WebSocket.OPEN) return false;
+    this.ws.send(JSON.stringify(msg));
+    return true;
+  }
+
   close() {
     clearTimeout(this.timer);
     this.id = null;

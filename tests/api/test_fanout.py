@@ -51,33 +51,43 @@ def _drained(viewer: Viewer) -> bool:
     return not viewer.queue and viewer.frame is None
 
 
-def test_ordered_messages_keep_order_and_only_the_newest_frame_is_sent() -> None:
+def _frame(t: float, x: float = 0.0, state: str = "idle") -> dict[str, Any]:
+    """An engine frame of one robot (the fields `Mission.frame()` has)."""
+    robot = {"name": "scout-1", "type": "scout", "state": state, "x": x, "y": 1.0}
+    robot |= {"heading": 0.0, "load": 0, "alive": True}
+    counters = {"sites_found": int(t)}
+    head = {"t": t, "status": "running", "policy": "fcfs", "robots": [robot]}
+    return head | {"scanned": "AA==", "scanned_count": 0, "counters": counters}
+
+
+def test_ordered_messages_keep_order_and_unsent_frames_are_merged() -> None:
     async def scenario() -> FakeSocket:
         hub = Hub(max_queue=100)
         ws = FakeSocket()
         viewer = hub.join(ws, json.dumps({"type": "snapshot"}))  # type: ignore[arg-type]
-        for i in range(3):
-            hub.publish_frame({"t": i})
-            hub.publish({"type": "event", "n": i})
+        hub.publish_frame(_frame(0, x=1.0))
+        hub.publish_frame(_frame(1, x=2.0, state="scanning"))
+        hub.publish({"type": "event", "n": 1})
+        hub.publish_frame(_frame(2, x=3.0, state="scanning"))
         task = asyncio.create_task(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
-        await ws.wait_sent(5)  # the snapshot, three events and one frame ...
+        await ws.wait_sent(3)  # the snapshot, the event and one merged frame ...
         assert _drained(viewer)  # ... and nothing else is waiting to go
-        hub.publish_frame({"t": 9}, last=True)
-        await ws.wait_sent(6)
+        hub.publish_frame(_frame(9, x=4.0), last=True)
+        await ws.wait_sent(4)
         assert _drained(viewer)
         task.cancel()
         return ws
 
     ws = _run(scenario())
     kinds = [(m["type"], m.get("n", m.get("t"))) for m in ws.sent]
-    assert kinds == [
-        ("snapshot", None),
-        ("event", 0),
-        ("event", 1),
-        ("event", 2),
-        ("frame", 2),  # frames 0 and 1 were stale: replaced, never queued
-        ("frame", 9),
-    ]
+    assert kinds == [("snapshot", None), ("event", 1), ("frame", 2), ("frame", 9)]
+    merged, last = ws.sent[2], ws.sent[3]
+    # three deltas not yet sent went as one: from the first's base to the last's seq, the
+    # robot whole (its state changed) at its newest pose, the newest counters
+    assert (merged["base"], merged["seq"], last["base"], last["seq"]) == (0, 3, 3, 4)
+    assert merged["robots"] == [_frame(2, x=3.0, state="scanning")["robots"][0]]
+    assert merged["counters"] == {"sites_found": 2} and "poses" not in merged
+    assert last["robots"] == [_frame(9, x=4.0)["robots"][0]]  # state changed back
     assert all("wall" in m for m in ws.sent if m["type"] == "frame")
 
 
@@ -115,3 +125,27 @@ def test_bad_client_input_closes_that_socket_with_a_proper_code() -> None:
         viewer = hub.join(ws, "{}")  # type: ignore[arg-type]
         _run(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
         assert ws.closed == code and len(hub) == 0
+
+
+def test_a_resync_is_answered_with_a_full_frame_once_there_is_one() -> None:
+    async def scenario() -> FakeSocket:
+        hub = Hub(max_queue=10)
+        resync = {"type": "websocket.receive", "text": json.dumps({"type": "resync"})}
+        ws = FakeSocket(inbox=[resync])
+        viewer = hub.join(ws, json.dumps({"type": "snapshot"}))  # type: ignore[arg-type]
+        task = asyncio.create_task(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
+        await ws.wait_sent(1)
+        await asyncio.sleep(0.05)  # the resync was read: nothing streamed yet, nothing sent
+        assert len(ws.sent) == 1 and viewer.want_full
+        hub.publish_frame(_frame(1, x=2.0))
+        await ws.wait_sent(2)
+        hub.publish_frame(_frame(2, x=3.0))
+        await ws.wait_sent(3)
+        task.cancel()
+        return ws
+
+    ws = _run(scenario())
+    full, delta = ws.sent[1], ws.sent[2]
+    assert full["full"] is True and full["seq"] == 1 and "base" not in full
+    assert full["robots"] == [_frame(1, x=2.0)["robots"][0]] and full["scanned"] == "AA=="
+    assert (delta["base"], delta["seq"], delta["poses"]) == (1, 2, [0, 3.0, 1.0, 0.0])
