@@ -25,6 +25,7 @@ from app.live.runner import MissionRunner
 from app.metrics import metrics_registry
 from app.middleware import (
     LimitBodyMiddleware,
+    RejectNulMiddleware,
     RequestContextMiddleware,
     SecurityHeadersMiddleware,
 )
@@ -113,6 +114,7 @@ def create_app(settings: Settings | None = None, held: DataLock | None = None) -
     app.include_router(api_router)
     app.include_router(sweep_routes.router, prefix="/api")
     app.add_middleware(LimitBodyMiddleware, max_bytes=1_000_000)
+    app.add_middleware(RejectNulMiddleware)
     app.add_middleware(SecurityHeadersMiddleware)
     if settings.cors_origins:
         app.add_middleware(

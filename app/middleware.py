@@ -1,5 +1,5 @@
 """Small pure-ASGI middlewares (no per-request task overhead): request context and access
-log, body size, security headers."""
+log, body size, security headers, NUL characters."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import logging
 import re
 import uuid
 from time import perf_counter
+from urllib.parse import parse_qsl
 
 from starlette.datastructures import MutableHeaders
 from starlette.exceptions import HTTPException
@@ -52,6 +53,35 @@ class SecurityHeadersMiddleware:
             await send(message)
 
         await self.app(scope, receive, send_with_headers)
+
+
+class RejectNulMiddleware:
+    """A query parameter or path with a NUL character is a 422 naming it: SQLite stores the
+    text, but PostgreSQL refuses it, and that must not surface as a 500 (nor differ by
+    database)."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        where = _nul_in(scope) if scope["type"] == "http" else None
+        if where is None:
+            await self.app(scope, receive, send)
+            return
+        msg = "must not contain a NUL character"
+        detail = [{"loc": list(where), "msg": msg, "type": "value_error"}]
+        body = {"detail": detail, "message": f"{'.'.join(where)}: {msg}"}
+        await JSONResponse(body, status_code=422)(scope, receive, send)
+
+
+def _nul_in(scope: Scope) -> tuple[str, ...] | None:
+    if "\x00" in scope["path"]:
+        return ("path",)
+    query = scope.get("query_string", b"").decode("latin-1")
+    for key, value in parse_qsl(query, keep_blank_values=True):
+        if "\x00" in key or "\x00" in value:
+            return ("query", key.replace("\x00", "\\x00"))
+    return None
 
 
 class LimitBodyMiddleware:

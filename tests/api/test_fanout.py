@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from app.live.hub import CLOSE_BAD_DATA, CLOSE_TOO_BIG, CLOSE_TOO_SLOW, Hub, Viewer, serve_viewer
@@ -43,7 +44,10 @@ class FakeSocket:
 
 
 def _run(coro: Any) -> Any:
-    return asyncio.run(asyncio.wait_for(coro, timeout=5))
+    """On a thread of its own: under pytest-xdist a worker may have run a Playwright test
+    before, whose event loop still runs on the main thread."""
+    with ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, asyncio.wait_for(coro, timeout=5)).result()
 
 
 def _drained(viewer: Viewer) -> bool:

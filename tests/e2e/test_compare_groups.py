@@ -12,7 +12,8 @@ from tests.e2e.conftest import ARTIFACTS, ConsoleLog
 from tests.e2e.test_dashboard import wait_for
 from tests.e2e.test_layout import CHART_BOXES, check_charts
 
-FOUR = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
+# A name of its own: other tests of the same session server run small worlds too.
+FOUR = {"name": "compare-groups", "width": 40.0, "height": 40.0, "sites": 4}
 THREE = {**FOUR, "sites": 3}  # same name, other content
 
 
@@ -43,7 +44,7 @@ def test_compare_keeps_scenarios_and_mixed_runs_apart(
     mixed = run("fcfs", 3, FOUR, switch="coalition")
     other = run("fcfs", 1, THREE)
     assert mixed["mixed_policy"] and mixed["policies"] == ["fcfs", "coalition"]
-    four, three = f"small#{coal['scenario_hash']}", f"small#{other['scenario_hash']}"
+    four, three = (f"{FOUR['name']}#{m['scenario_hash']}" for m in (coal, other))
     assert four != three
 
     page.goto("/#/compare")
@@ -61,7 +62,7 @@ def test_compare_keeps_scenarios_and_mixed_runs_apart(
     expect(row.locator(".badge.mixed")).to_have_text("mixed")
     expect(row.locator("input[type=checkbox]")).to_be_disabled()
     expect(row.locator("input[type=checkbox]")).not_to_be_checked()
-    expect(row.locator("td.scenario-cell")).to_have_text("small")
+    expect(row.locator("td.scenario-cell")).to_have_text("compare-groups")
 
     head = page.locator("#compare-summary thead th")
     runs = page.locator("#compare-summary tbody tr").first.locator("td")
@@ -98,7 +99,7 @@ def test_compare_keeps_scenarios_and_mixed_runs_apart(
     expect(rows).to_have_count(1)
     expect(head).to_have_text(["mean ± 95% CI", "1 · FCFS"])
     expect(runs).to_have_text(["1"])
-    expect(page.locator("#compare-n")).to_have_text("· small · 1 runs")
+    expect(page.locator("#compare-n")).to_have_text("· compare-groups · 1 runs")
 
     # the run history shows both policies of the mixed run
     page.goto("/#/missions")
