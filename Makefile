@@ -49,8 +49,12 @@ lint: $(STAMP)
 	$(BIN)/mypy engine
 	$(BIN)/lint-imports
 
+# Two workers (pytest-xdist): most of the suite waits on servers, browsers and PostgreSQL,
+# and each worker has its own (free ports, its own temporary folders and cluster).
+TEST_WORKERS ?= 2
+
 test: $(STAMP) browser postgresql lint
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist worksteal
 
 format: $(STAMP)
 	$(BIN)/ruff format .
