@@ -141,7 +141,10 @@ class Robot(Bidder, Recovery):
                 )
             )
             return
-        if any(a.task_id == msg.task_id for a in self.tasks_held()):
+        cur = self.current
+        if (cur is not None and cur.task_id == msg.task_id) or any(
+            a.task_id == msg.task_id for a in self.queue
+        ):
             self.ctx.bus.publish(
                 Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
             )
@@ -186,7 +189,8 @@ class Robot(Bidder, Recovery):
 
     def _on_close(self, msg: Close) -> None:
         info = self.forget_auction(msg.auction_id)
-        self.my_bids.pop(msg.auction_id, None)
+        if self.my_bids.pop(msg.auction_id, None) is not None:
+            self._refused = None
         peer = self.peer_open.get(msg.sender)
         if peer is not None:
             peer.pop(msg.auction_id, None)

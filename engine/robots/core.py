@@ -99,6 +99,7 @@ class RobotCore:
         self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
         self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
+        self._refused: bool | None = None  # -inf bid in every auction of _in_order (cache)
         self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
         self.reserved: OpenAuction | None = None
         self.pending_awards: list[PendingAward] = []
@@ -204,6 +205,7 @@ class RobotCore:
     def auctions_in_order(self) -> list[OpenAuction]:
         """Open auctions I can serve, by opening order, minus those of auctioneers I think down."""
         if self._in_order is None:
+            self._refused = None
             self._in_order = sorted(
                 (a for a in self.open_auctions.values() if a.auctioneer not in self.down),
                 key=lambda a: a.order,
