@@ -51,6 +51,10 @@ class Motion:
 class RobotCore:
     rtype = "robot"
     capability: TaskType | None = None
+    hears: frozenset[str] | None = None
+    """The task types whose announcements this type acts on: those it can do, those it
+    auctions, those a hook reads (None: all). Announcements of other types from robots of
+    another type do not reach it on the ideal bus: it would only note their round."""
 
     def __init__(self, name: str, ctx: MissionContext, pos: Point, speed: float) -> None:
         self.name = name
@@ -92,7 +96,7 @@ class RobotCore:
         self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
         self._reset_knowledge()
         ctx.liveness.add(name)
-        ctx.bus.subscribe(name, self.on_message)
+        ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears)
 
     def _reset_knowledge(self) -> None:
         self.open_auctions: dict[str, OpenAuction] = {}  # the ones I can serve
