@@ -8,13 +8,15 @@ injected tasks) and buses (ideal, lossy, late):
   not every robot;
 - a busy robot that said -inf in every target skips the bidding rules
   (`engine.bidding.refused_all`);
-- the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`).
+- the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
+- the crater index looks only at the buckets a segment passes through (`CraterIndex`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 from typing import Any
 
 import numpy as np
@@ -26,15 +28,16 @@ import engine.robots.bidder
 from engine import POLICIES, Mission
 from engine.bus import EmbeddedBus
 from engine.errors import CommandRejected
+from engine.geometry import segment_point_distance
 from engine.liveness import Liveness
+from engine.scenario import Crater
+from engine.world import CLEARANCE, CraterIndex
 from tests.engine.factories import small_scenario
 
 
 def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> list[str]:
     r = self.index[receiver]
-    return [
-        n for i, n in enumerate(self.names) if i != r and self.heard[r, i] < now - timeout
-    ]
+    return [n for i, n in enumerate(self.names) if i != r and self.heard[r, i] < now - timeout]
 
 
 def _play(scenario: Any, seed: int, policy: str, actions: list[tuple[float, str, Any]]) -> str:
@@ -134,3 +137,25 @@ def test_silent_peers_match_a_look_at_every_entry(ops, timeout):
                 board.deliver_heartbeat(sender, serial, None if op == "hb_all" else some, now)
         for r in board.names:
             assert board.silent(r, now, timeout) == _brute_silent(board, r, now, timeout)
+
+
+COORD = st.one_of(st.floats(0.0, 300.0), st.integers(0, 15).map(lambda k: 20.0 * k))
+"""Anywhere, or exactly on a bucket boundary (20 m), where rounding would bite."""
+
+
+@given(
+    craters=st.lists(st.tuples(COORD, COORD, st.floats(0.5, 30.0)), max_size=25),
+    segments=st.lists(st.tuples(COORD, COORD, COORD, COORD), min_size=1, max_size=25),
+)
+@settings(max_examples=150, deadline=None)
+def test_crater_index_answers_as_a_look_at_every_crater(craters, segments):
+    """The index visits only the buckets a segment passes through; it never misses a crater."""
+    cs = tuple(Crater(x=x, y=y, r=r) for x, y, r in craters)
+    index = CraterIndex(cs)
+    for x0, y0, x1, y1 in segments:
+        a, b = (x0, y0), (x1, y1)
+        brute = all(segment_point_distance(a, b, (c.x, c.y)) > c.r + CLEARANCE for c in cs)
+        assert index.segment_free(a, b) == brute
+        assert index.point_free(x0, y0) == all(
+            math.hypot(x0 - c.x, y0 - c.y) > c.r + CLEARANCE for c in cs
+        )
