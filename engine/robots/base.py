@@ -195,13 +195,16 @@ class Robot(Bidder, Recovery):
         if peer is not None:
             peer.pop(msg.auction_id, None)
             if msg.allocated_to is not None:
-                self.peer_alloc.setdefault(msg.sender, {})[msg.task_id] = Allocation(
-                    msg.auction_id,
-                    msg.task_id,
-                    msg.task_type,
-                    msg.location,
-                    msg.allocated_to,
-                    float(self.env.now),
+                self.note_peer_alloc(
+                    msg.sender,
+                    Allocation(
+                        msg.auction_id,
+                        msg.task_id,
+                        msg.task_type,
+                        msg.location,
+                        msg.allocated_to,
+                        float(self.env.now),
+                    ),
                 )
         self.on_close_heard(msg)
         if self.reserved is not None and self.reserved.auction_id == msg.auction_id:
@@ -226,9 +229,7 @@ class Robot(Bidder, Recovery):
     def _on_task_done(self, msg: TaskDone) -> None:
         # only the robot a task was allocated to ends that allocation (a duplicate holder's
         # "void" must not end the real holder's watch)
-        for allocs in self.peer_alloc.values():
-            if msg.task_id in allocs and allocs[msg.task_id].winner == msg.sender:
-                del allocs[msg.task_id]
+        self.end_peer_alloc(msg.task_id, msg.sender)
         alloc = self.house.allocations.get(msg.task_id)
         if alloc is not None and alloc.winner == msg.sender:
             del self.house.allocations[msg.task_id]

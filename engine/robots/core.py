@@ -85,6 +85,7 @@ class RobotCore:
         # whose duties I took over, tasks I finished, and my own duties while I am down.
         self.peer_open: dict[str, dict[str, OpenAuction]] = {}
         self.peer_alloc: dict[str, dict[str, Allocation]] = {}
+        self._alloc_peers: dict[str, set[str]] = {}  # task id -> peers whose peer_alloc has it
         self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
         self.adopted_tasks: dict[str, tuple[str, ...]] = {}  # failed peer -> its tasks I hold
         self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
@@ -215,6 +216,32 @@ class RobotCore:
                 key=lambda a: a.order,
             )
         return self._in_order
+
+    def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
+        """A peer of my type allocated a task (its Close): remembered for adopting its watch."""
+        self.peer_alloc.setdefault(peer, {})[alloc.task_id] = alloc
+        self._alloc_peers.setdefault(alloc.task_id, set()).add(peer)
+
+    def forget_peer_allocs(self, peer: str) -> dict[str, Allocation]:
+        allocs = self.peer_alloc.pop(peer, {})
+        for tid in allocs:
+            self._unlist(tid, peer)
+        return allocs
+
+    def end_peer_alloc(self, task_id: str, winner: str) -> None:
+        """`winner` reported the task finished: every peer's allocation of it to `winner` ends
+        (found through the task's index, not by a look at every peer)."""
+        for peer in list(self._alloc_peers.get(task_id, ())):
+            allocs = self.peer_alloc[peer]
+            if allocs[task_id].winner == winner:
+                del allocs[task_id]
+                self._unlist(task_id, peer)
+
+    def _unlist(self, task_id: str, peer: str) -> None:
+        peers = self._alloc_peers[task_id]
+        peers.discard(peer)
+        if not peers:
+            del self._alloc_peers[task_id]
 
     def peer_type(self, name: str) -> str | None:
         """What a peer is, as far as messages have told me (None: never heard of it)."""
