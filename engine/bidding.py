@@ -56,6 +56,17 @@ class BidMemory:
     every_round: bool  # scenario protocol: a busy robot's -inf on every round, not once
 
 
+def refused_all(sent: Mapping[str, tuple[int, float]], targets: Sequence[OpenAuction]) -> bool:
+    """Has the robot bid -inf in every one of these auctions? Then, while it is busy (and
+    `every_round` is off), neither rule below sends anything: a robot may skip asking them.
+    Most robots are busy most of the time, and each hears every announcement."""
+    for a in targets:
+        prev = sent.get(a.auction_id)
+        if prev is None or prev[1] != -math.inf:
+            return False
+    return True
+
+
 def distance_bids(view: RobotView, targets: Sequence[OpenAuction], mem: BidMemory) -> Bids:
     """docs/spec.md §6.2: utility = -(path length to the task). A new auction or round gets
     a bid; a busy robot says -inf once per auction (or every round, if configured)."""

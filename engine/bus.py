@@ -13,14 +13,16 @@ from typing import Any, Protocol
 import numpy as np
 
 from engine.liveness import Liveness
-from engine.messages import Heartbeat, Message
+from engine.messages import Announce, Heartbeat, Message
 from engine.scenario import BusConfig
 
 Handler = Callable[[Message], None]
 
 
 class Bus(Protocol):
-    def subscribe(self, name: str, handler: Handler) -> None: ...
+    def subscribe(
+        self, name: str, handler: Handler, rtype: str = "", hears: frozenset[str] | None = None
+    ) -> None: ...
 
     def publish(self, msg: Message) -> None: ...
 
@@ -42,12 +44,39 @@ class EmbeddedBus:
         self._rng = rng
         self._on_publish = on_publish
         self._subscribers: dict[str, Handler] = {}
+        self._rtypes: dict[str, str] = {}
+        self._hears: dict[str, frozenset[str] | None] = {}
+        self._audiences: dict[tuple[str, str], list[tuple[str, Handler]]] = {}
         self.published = 0
         self.lost = 0
         self._ideal = config.loss == 0.0 and config.latency_s == 0.0 and config.jitter_s == 0.0
 
-    def subscribe(self, name: str, handler: Handler) -> None:
+    def subscribe(
+        self, name: str, handler: Handler, rtype: str = "", hears: frozenset[str] | None = None
+    ) -> None:
+        """`hears`: the task types whose announcements this subscriber acts on (None: all);
+        it also gets every announcement from a sender of its own `rtype`."""
         self._subscribers[name] = handler
+        self._rtypes[name] = rtype
+        self._hears[name] = hears
+        self._audiences.clear()
+
+    def _audience(self, msg: Announce) -> list[tuple[str, Handler]]:
+        """Who an announcement reaches on the ideal bus, in subscription order: every robot
+        that can act on it. The others would only note its round, which they never read
+        (`Robot._on_announce`); the choice depends on the task type and the sender's type,
+        so all rounds of one auction reach the same robots."""
+        key = (msg.task_type, self._rtypes.get(msg.sender, ""))
+        out = self._audiences.get(key)
+        if out is None:
+            out = self._audiences[key] = [
+                (name, handler)
+                for name, handler in self._subscribers.items()
+                if (hears := self._hears[name]) is None
+                or msg.task_type in hears
+                or self._rtypes[name] == key[1]
+            ]
+        return out
 
     def publish(self, msg: Message) -> None:
         self.published += 1
@@ -82,7 +111,10 @@ class EmbeddedBus:
             if handler is not None and to != msg.sender:
                 handler(msg)
             return
-        for name, handler in list(self._subscribers.items()):
+        receivers = (
+            self._audience(msg) if isinstance(msg, Announce) else list(self._subscribers.items())
+        )
+        for name, handler in receivers:
             if name != msg.sender:
                 handler(msg)
 

@@ -25,6 +25,11 @@ class Liveness:
         self.names: list[str] = []
         self.heard = np.full((capacity, capacity), np.inf)  # inf: never heard (never silent)
         self.hb_seen = np.full((capacity, capacity), -1, dtype=np.int64)
+        # floor[s] <= heard[r, s] for every receiver r: a column write sets it, a single
+        # entry only grows. `_floor_min` is a (possibly stale, hence lower) bound of its
+        # minimum, so `silent` answers "nobody" without a look at the row in the usual case.
+        self.floor = np.full(capacity, np.inf)
+        self._floor_min = np.inf
         self._history: dict[str, deque[tuple[int, Heartbeat]]] = {}
         self._hb_serial: dict[str, int] = {}
 
@@ -38,7 +43,9 @@ class Liveness:
             heard[:i, :i] = self.heard[:i, :i]
             seen = np.full((cap, cap), -1, dtype=np.int64)
             seen[:i, :i] = self.hb_seen[:i, :i]
-            self.heard, self.hb_seen = heard, seen
+            floor = np.full(cap, np.inf)
+            floor[:i] = self.floor[:i]
+            self.heard, self.hb_seen, self.floor = heard, seen, floor
         self.index[name] = i
         self.names.append(name)
         self._history[name] = deque(maxlen=HISTORY)
@@ -49,6 +56,8 @@ class Liveness:
         """The team that starts together has 'heard' each other at the start (the roster)."""
         n = len(self.names)
         self.heard[:n, :n] = t
+        self.floor[:n] = t
+        self._floor_min = t if n else np.inf
 
     def record_heartbeat(self, hb: Heartbeat) -> int:
         """Store a sent heartbeat; returns its serial for delivery."""
@@ -65,6 +74,7 @@ class Liveness:
         if receivers is None:
             n = len(self.names)
             self.heard[:n, s] = t
+            self.floor[s] = t
             self.hb_seen[:n, s] = serial  # serials only grow, and this one reached all
             return
         self.heard[receivers, s] = t
@@ -74,6 +84,7 @@ class Liveness:
         s = self.index.get(sender)
         if s is not None:
             self.heard[: len(self.names), s] = t
+            self.floor[s] = t
 
     def heard_from(self, receiver: str, sender: str, t: float) -> None:
         r, s = self.index.get(receiver), self.index.get(sender)
@@ -116,5 +127,11 @@ class Liveness:
     def silent(self, receiver: str, now: float, timeout: float) -> list[str]:
         """Peers this receiver has heard at least once but not within `timeout`."""
         r = self.index[receiver]
-        idx = np.flatnonzero(self.heard[r, : len(self.names)] < now - timeout)
+        before = now - timeout
+        if self._floor_min >= before:
+            return []
+        self._floor_min = float(self.floor[: len(self.names)].min())
+        if self._floor_min >= before:
+            return []
+        idx = np.flatnonzero(self.heard[r, : len(self.names)] < before)
         return [self.names[i] for i in idx if i != r]

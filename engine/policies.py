@@ -60,6 +60,8 @@ class Policy:
     colour = "#a3b1c2"  # one hex colour per policy, used by every chart and menu
     description = ""  # one line
     decentralized = True  # False: some unit with global knowledge decides (the baseline)
+    targets_pure = True
+    """`bid_targets` only reads: a robot that provably sends no bid may skip asking it."""
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         """Of the open auctions the robot can serve, given in opening order, those it bids in now
@@ -335,6 +337,7 @@ class Offline(EarlyTransports):
     label, colour = "Offline (clairvoyant)", "#d55e00"
     description = "reference, not decentralized: a clairvoyant schedule planned from t = 0"
     decentralized = False
+    targets_pure = False  # the plan is built (and planner queries made) on first ask
 
     def __init__(self) -> None:
         self._oracle: OfflineAllocator | None = None

@@ -30,11 +30,38 @@ class CraterIndex:
                     self.buckets[(bx, by)].append((c.x, c.y, r))
 
     def _near(self, x0: float, y0: float, x1: float, y1: float) -> set[tuple[float, float, float]]:
+        """Craters registered in a bucket the segment passes through. Column by column, the
+        rows the segment spans there (padded by one bucket-hundredth against rounding): the
+        buckets cost grows with the segment's length, not with its bounding box's area."""
         b = self.bucket
+        get = self.buckets.get
         out: set[tuple[float, float, float]] = set()
-        for bx in range(int(min(x0, x1) // b), int(max(x0, x1) // b) + 1):
-            for by in range(int(min(y0, y1) // b), int(max(y0, y1) // b) + 1):
-                out.update(self.buckets.get((bx, by), ()))
+        if x0 > x1:
+            x0, y0, x1, y1 = x1, y1, x0, y0
+        c0, c1 = int(x0 // b), int(x1 // b)
+        r0, r1 = int(min(y0, y1) // b), int(max(y0, y1) // b)
+        if (c1 - c0) * (r1 - r0) <= 4:  # a small box: every bucket of it is cheaper
+            for bx in range(c0, c1 + 1):
+                for by in range(r0, r1 + 1):
+                    cell = get((bx, by))
+                    if cell:
+                        out.update(cell)
+            return out
+        dx, dy = x1 - x0, y1 - y0
+        pad = b / 100.0
+        for bx in range(c0, c1 + 1):
+            if dx > 0.0:
+                ta = min(1.0, max(0.0, (bx * b - x0) / dx))
+                tb = min(1.0, max(0.0, ((bx + 1) * b - x0) / dx))
+                ya, yb = y0 + ta * dy, y0 + tb * dy
+            else:
+                ya, yb = y0, y1
+            if ya > yb:
+                ya, yb = yb, ya
+            for by in range(int((ya - pad) // b), int((yb + pad) // b) + 1):
+                cell = get((bx, by))
+                if cell:
+                    out.update(cell)
         return out
 
     def point_free(self, x: float, y: float) -> bool:

@@ -141,7 +141,10 @@ class Robot(Bidder, Recovery):
                 )
             )
             return
-        if any(a.task_id == msg.task_id for a in self.tasks_held()):
+        cur = self.current
+        if (cur is not None and cur.task_id == msg.task_id) or any(
+            a.task_id == msg.task_id for a in self.queue
+        ):
             self.ctx.bus.publish(
                 Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
             )
@@ -186,18 +189,22 @@ class Robot(Bidder, Recovery):
 
     def _on_close(self, msg: Close) -> None:
         info = self.forget_auction(msg.auction_id)
-        self.my_bids.pop(msg.auction_id, None)
+        if self.my_bids.pop(msg.auction_id, None) is not None:
+            self._refused = None
         peer = self.peer_open.get(msg.sender)
         if peer is not None:
             peer.pop(msg.auction_id, None)
             if msg.allocated_to is not None:
-                self.peer_alloc.setdefault(msg.sender, {})[msg.task_id] = Allocation(
-                    msg.auction_id,
-                    msg.task_id,
-                    msg.task_type,
-                    msg.location,
-                    msg.allocated_to,
-                    float(self.env.now),
+                self.note_peer_alloc(
+                    msg.sender,
+                    Allocation(
+                        msg.auction_id,
+                        msg.task_id,
+                        msg.task_type,
+                        msg.location,
+                        msg.allocated_to,
+                        float(self.env.now),
+                    ),
                 )
         self.on_close_heard(msg)
         if self.reserved is not None and self.reserved.auction_id == msg.auction_id:
@@ -222,9 +229,7 @@ class Robot(Bidder, Recovery):
     def _on_task_done(self, msg: TaskDone) -> None:
         # only the robot a task was allocated to ends that allocation (a duplicate holder's
         # "void" must not end the real holder's watch)
-        for allocs in self.peer_alloc.values():
-            if msg.task_id in allocs and allocs[msg.task_id].winner == msg.sender:
-                del allocs[msg.task_id]
+        self.end_peer_alloc(msg.task_id, msg.sender)
         alloc = self.house.allocations.get(msg.task_id)
         if alloc is not None and alloc.winner == msg.sender:
             del self.house.allocations[msg.task_id]

@@ -9,7 +9,7 @@ from typing import Any
 
 import simpy
 
-from engine.bidding import BidMemory
+from engine.bidding import BidMemory, refused_all
 from engine.geometry import Point, path_length
 from engine.messages import Ack, Award, Bid
 from engine.planning import PlanningError
@@ -118,19 +118,35 @@ class Bidder(RobotCore):
         if not auctions:
             return
         policy = self.ctx.policy
-        targets = policy.bid_targets(self, auctions)
         busy = not self.has_room()
         situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
+        every_round = self.ctx.scenario.protocol.busy_bid == "every_round"
+        if busy and not every_round and policy.targets_pure and self._refused_all():
+            # no room, and -inf said in every auction I know: no bid, whatever the targets
+            self._bid_situation = situation
+            return
+        targets = policy.bid_targets(self, auctions)
+        if busy and not every_round and refused_all(self.my_bids, targets):
+            self._bid_situation = situation
+            return
         mem = BidMemory(
             busy=busy,
             sent=self.my_bids,
             rounds=self.rounds,
             changed=situation != self._bid_situation,
-            every_round=self.ctx.scenario.protocol.busy_bid == "every_round",
+            every_round=every_round,
         )
         self._bid_situation = situation
         for a, rnd, utility in policy.bids(self, targets, mem):
             self._bid(a, rnd, utility)
+
+    def _refused_all(self) -> bool:
+        """Have I bid -inf in every open auction I can serve? Cached until an auction comes or
+        goes or I bid (`_refused` is reset wherever `_in_order` or `my_bids` changes)."""
+        if self._refused is None:
+            sent = self.my_bids
+            self._refused = refused_all(sent, self.auctions_in_order())
+        return self._refused
 
     def eta_to(self, a: OpenAuction) -> float:
         """Seconds until this robot could stand at the task: finish what it holds, then drive."""
@@ -155,6 +171,7 @@ class Bidder(RobotCore):
 
     def _bid(self, a: OpenAuction, rnd: int, utility: float) -> None:
         self.my_bids[a.auction_id] = (rnd, utility)
+        self._refused = None
         self.ctx.bus.publish(
             Bid(
                 sender=self.name,

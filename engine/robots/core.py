@@ -51,6 +51,10 @@ class Motion:
 class RobotCore:
     rtype = "robot"
     capability: TaskType | None = None
+    hears: frozenset[str] | None = None
+    """The task types whose announcements this type acts on: those it can do, those it
+    auctions, those a hook reads (None: all). Announcements of other types from robots of
+    another type do not reach it on the ideal bus: it would only note their round."""
 
     def __init__(self, name: str, ctx: MissionContext, pos: Point, speed: float) -> None:
         self.name = name
@@ -81,6 +85,7 @@ class RobotCore:
         # whose duties I took over, tasks I finished, and my own duties while I am down.
         self.peer_open: dict[str, dict[str, OpenAuction]] = {}
         self.peer_alloc: dict[str, dict[str, Allocation]] = {}
+        self._alloc_peers: dict[str, set[str]] = {}  # task id -> peers whose peer_alloc has it
         self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
         self.adopted_tasks: dict[str, tuple[str, ...]] = {}  # failed peer -> its tasks I hold
         self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
@@ -92,13 +97,14 @@ class RobotCore:
         self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
         self._reset_knowledge()
         ctx.liveness.add(name)
-        ctx.bus.subscribe(name, self.on_message)
+        ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears)
 
     def _reset_knowledge(self) -> None:
         self.open_auctions: dict[str, OpenAuction] = {}  # the ones I can serve
         self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
         self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
+        self._refused: bool | None = None  # -inf bid in every auction of _in_order (cache)
         self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
         self.reserved: OpenAuction | None = None
         self.pending_awards: list[PendingAward] = []
@@ -204,11 +210,38 @@ class RobotCore:
     def auctions_in_order(self) -> list[OpenAuction]:
         """Open auctions I can serve, by opening order, minus those of auctioneers I think down."""
         if self._in_order is None:
+            self._refused = None
             self._in_order = sorted(
                 (a for a in self.open_auctions.values() if a.auctioneer not in self.down),
                 key=lambda a: a.order,
             )
         return self._in_order
+
+    def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
+        """A peer of my type allocated a task (its Close): remembered for adopting its watch."""
+        self.peer_alloc.setdefault(peer, {})[alloc.task_id] = alloc
+        self._alloc_peers.setdefault(alloc.task_id, set()).add(peer)
+
+    def forget_peer_allocs(self, peer: str) -> dict[str, Allocation]:
+        allocs = self.peer_alloc.pop(peer, {})
+        for tid in allocs:
+            self._unlist(tid, peer)
+        return allocs
+
+    def end_peer_alloc(self, task_id: str, winner: str) -> None:
+        """`winner` reported the task finished: every peer's allocation of it to `winner` ends
+        (found through the task's index, not by a look at every peer)."""
+        for peer in list(self._alloc_peers.get(task_id, ())):
+            allocs = self.peer_alloc[peer]
+            if allocs[task_id].winner == winner:
+                del allocs[task_id]
+                self._unlist(task_id, peer)
+
+    def _unlist(self, task_id: str, peer: str) -> None:
+        peers = self._alloc_peers[task_id]
+        peers.discard(peer)
+        if not peers:
+            del self._alloc_peers[task_id]
 
     def peer_type(self, name: str) -> str | None:
         """What a peer is, as far as messages have told me (None: never heard of it)."""

@@ -23,6 +23,7 @@ SENSE = 2.0
 class Hauler(Robot):
     rtype = "hauler"
     capability = "transport"
+    hears = frozenset({"transport"})  # it never auctions, and sites are not its business
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)

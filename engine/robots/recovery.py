@@ -143,7 +143,7 @@ class Recovery(RobotCore):
             )
             opened.append(rec.id)
             tasks.append(info.task_id)
-        for tid, alloc in self.peer_alloc.pop(peer, {}).items():
+        for tid, alloc in self.forget_peer_allocs(peer).items():
             tasks.append(tid)
             if alloc.winner in self.down:  # search where its holder was last heard carrying it
                 self.reauction(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
@@ -303,7 +303,7 @@ class Recovery(RobotCore):
             self._forget_adoption(msg.failed)
             self.on_adoption_undone(msg.failed)
         self.peer_open.pop(msg.failed, None)
-        self.peer_alloc.pop(msg.failed, None)
+        self.forget_peer_allocs(msg.failed)
         self.on_takeover_heard(msg)
 
     def on_adoption_undone(self, failed: str) -> None:

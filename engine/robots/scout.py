@@ -27,6 +27,7 @@ def site_task_id(x: float, y: float) -> str:
 class Scout(Robot):
     rtype = "scout"
     capability = None
+    hears = frozenset({"excavate"})  # it auctions sites and learns of its peers' (on_task_heard)
 
     def __init__(
         self,

@@ -1,0 +1,161 @@
+"""The engine's shortcuts give the very run the plain code they stand for gives.
+
+Each shortcut is switched back to its brute-force form and the event logs compared, over
+random scenarios, policies, operator actions (failures, returns, newcomers, policy switches,
+injected tasks) and buses (ideal, lossy, late):
+
+- an announcement reaches only the robots that can act on it (`EmbeddedBus._audience`),
+  not every robot;
+- a busy robot that said -inf in every target skips the bidding rules
+  (`engine.bidding.refused_all`);
+- the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
+- the crater index looks only at the buckets a segment passes through (`CraterIndex`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import engine.robots.bidder
+from engine import POLICIES, Mission
+from engine.bus import EmbeddedBus
+from engine.errors import CommandRejected
+from engine.geometry import segment_point_distance
+from engine.liveness import Liveness
+from engine.scenario import Crater
+from engine.world import CLEARANCE, CraterIndex
+from tests.engine.factories import small_scenario
+
+
+def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> list[str]:
+    r = self.index[receiver]
+    return [n for i, n in enumerate(self.names) if i != r and self.heard[r, i] < now - timeout]
+
+
+def _play(scenario: Any, seed: int, policy: str, actions: list[tuple[float, str, Any]]) -> str:
+    m = Mission(scenario, seed, policy)
+    for t, kind, arg in actions:
+        m.advance(t)
+        try:
+            if kind == "fail":
+                m.disable_robot(arg, "abrupt")
+            elif kind == "leave":
+                m.disable_robot(arg, "graceful")
+            elif kind == "enable":
+                m.enable_robot(arg)
+            elif kind == "add":
+                m.add_robot(arg)
+            elif kind == "policy":
+                m.set_policy(arg)
+            else:
+                m.inject_task(arg, (20.0, 20.0))
+        except CommandRejected:
+            pass
+    m.run()
+    h = hashlib.sha256()
+    for e in m.events:
+        h.update(json.dumps(e.to_dict(), sort_keys=True).encode())
+    return f"{m.status} {len(m.events)} {h.hexdigest()}"
+
+
+ROBOTS = ["scout-1", "scout-2", "excavator-1", "excavator-2", "hauler-1", "hauler-2"]
+ACTION = st.one_of(
+    st.tuples(st.sampled_from(["fail", "leave", "enable"]), st.sampled_from(ROBOTS)),
+    st.tuples(st.just("add"), st.sampled_from(["scout", "excavator", "hauler"])),
+    st.tuples(st.just("policy"), st.sampled_from(list(POLICIES))),
+    st.tuples(st.just("inject"), st.sampled_from(["excavate", "transport"])),
+)
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    policy=st.sampled_from(list(POLICIES)),
+    bus=st.sampled_from([{}, {"loss": 0.1}, {"latency_s": 0.3, "jitter_s": 0.2}]),
+    every_round=st.booleans(),
+    actions=st.lists(st.tuples(st.floats(1.0, 600.0), ACTION), max_size=4),
+)
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_shortcuts_change_nothing(seed, policy, bus, every_round, actions):
+    scenario = small_scenario(
+        sites=3,
+        minerals=6,
+        team={"scouts": 2, "excavators": 2, "haulers": 2},
+        bus=bus,
+        protocol={"busy_bid": "every_round" if every_round else "once"},
+    )
+    plan = [(t, kind, arg) for t, (kind, arg) in sorted(actions, key=lambda a: a[0])]
+    fast = _play(scenario, seed, policy, plan)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(EmbeddedBus, "_audience", lambda self, msg: list(self._subscribers.items()))
+        mp.setattr(engine.robots.bidder, "refused_all", lambda sent, targets: False)
+        mp.setattr(Liveness, "silent", _brute_silent)
+        plain = _play(scenario, seed, policy, plan)
+    assert fast == plain
+
+
+@given(
+    ops=st.lists(
+        st.tuples(
+            st.sampled_from(["add", "hb_all", "hb_some", "heard", "introduce"]),
+            st.integers(0, 40),
+            st.floats(0.0, 5.0),
+        ),
+        max_size=60,
+    ),
+    timeout=st.floats(0.5, 20.0),
+)
+@settings(max_examples=60, deadline=None)
+def test_silent_peers_match_a_look_at_every_entry(ops, timeout):
+    """The floor never hides a silent peer: `silent` answers as a scan of the row does."""
+    board = Liveness(capacity=2)
+    now, rng = 0.0, np.random.default_rng(0)
+    for op, k, dt in ops:
+        now += dt
+        names = board.names
+        if op == "add" or not names:
+            board.add(f"r{len(names)}")
+        elif op == "introduce":
+            board.introduce_all(now)
+        else:
+            sender = names[k % len(names)]
+            if op == "heard":
+                board.heard_from(names[(k // 2) % len(names)], sender, now)
+            else:
+                from engine.messages import Heartbeat
+
+                hb = Heartbeat(sender=sender, rtype="scout", t=now, x=0.0, y=0.0, state="idle")
+                serial = board.record_heartbeat(hb)
+                some = rng.choice(len(names), size=len(names) // 2, replace=False)
+                board.deliver_heartbeat(sender, serial, None if op == "hb_all" else some, now)
+        for r in board.names:
+            assert board.silent(r, now, timeout) == _brute_silent(board, r, now, timeout)
+
+
+COORD = st.one_of(st.floats(0.0, 300.0), st.integers(0, 15).map(lambda k: 20.0 * k))
+"""Anywhere, or exactly on a bucket boundary (20 m), where rounding would bite."""
+
+
+@given(
+    craters=st.lists(st.tuples(COORD, COORD, st.floats(0.5, 30.0)), max_size=25),
+    segments=st.lists(st.tuples(COORD, COORD, COORD, COORD), min_size=1, max_size=25),
+)
+@settings(max_examples=150, deadline=None)
+def test_crater_index_answers_as_a_look_at_every_crater(craters, segments):
+    """The index visits only the buckets a segment passes through; it never misses a crater."""
+    cs = tuple(Crater(x=x, y=y, r=r) for x, y, r in craters)
+    index = CraterIndex(cs)
+    for x0, y0, x1, y1 in segments:
+        a, b = (x0, y0), (x1, y1)
+        brute = all(segment_point_distance(a, b, (c.x, c.y)) > c.r + CLEARANCE for c in cs)
+        assert index.segment_free(a, b) == brute
+        assert index.point_free(x0, y0) == all(
+            math.hypot(x0 - c.x, y0 - c.y) > c.r + CLEARANCE for c in cs
+        )
