@@ -15,6 +15,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from engine.realism import Docks, Energy, Radio, Uncertainty
+
 Coord = Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)]
 """A position: far beyond any area (5 km sides) but bounded, so bucket arithmetic stays exact."""
 
@@ -133,6 +135,11 @@ class Scenario(_Model):
     # action) for this long cannot finish as it stands: it ends `stalled`, saying what is stuck
     stall_timeout_s: Annotated[Period, Field(le=1e7)] = 3600.0
     start_spread: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 3.0
+    # the realism options (engine/realism.py, docs/model.md), each off by default
+    energy: Energy = Energy()
+    docks: Docks = Docks()
+    uncertainty: Uncertainty = Uncertainty()
+    radio: Radio = Radio()
 
     @property
     def plant_xy(self) -> tuple[float, float]:
@@ -164,7 +171,27 @@ class Scenario(_Model):
             )
         if self.sites > 0.5 * cells:
             raise ValueError("sites: more sites than fit apart on the search grid")
+        self._realism_feasible()
         return self
+
+    def _realism_feasible(self) -> None:
+        px, py = self.plant_xy
+        if self.energy.enabled:
+            for i, (x, y) in enumerate(self.energy.chargers):
+                if not (0 <= x <= self.width and 0 <= y <= self.height):
+                    raise ValueError(f"energy.chargers[{i}] must lie inside the area")
+            far = max(math.hypot(x - px, y - py) for x in (0, self.width) for y in (0, self.height))
+            for rtype in ROBOT_TYPES:
+                b = getattr(self.energy, rtype)
+                need = 2 * far * self.energy.detour * b.drive_kj_per_m
+                if need > b.capacity_kj * (1 - self.energy.reserve):
+                    raise ValueError(
+                        f"energy.{rtype}.capacity_kj: {b.capacity_kj:g} kJ cannot take a {rtype} "
+                        f"from the plant to the area's far corner and back ({need:.4g} kJ "
+                        f"beside the reserve)"
+                    )
+        if self.radio.enabled and self.radio.silent_timeout_s <= self.protocol.failure_timeout_s:
+            raise ValueError("radio.silent_timeout_s must exceed protocol.failure_timeout_s")
 
     def scaled(self, k: int) -> Scenario:
         """K times the team, sites, minerals and craters on an area √K wider (same density)."""
@@ -190,6 +217,8 @@ class Scenario(_Model):
             random_craters=self.random_craters * k,
             name=f"{self.name}x{k}",
         )
+        if self.energy.chargers:
+            data["energy"]["chargers"] = [(x * s, y * s) for x, y in self.energy.chargers]
         try:
             return Scenario.model_validate(data)  # a scaled scenario must pass every check too
         except ValidationError as exc:
