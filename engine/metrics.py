@@ -5,6 +5,7 @@ from __future__ import annotations
 import statistics
 from typing import TYPE_CHECKING, Any
 
+from engine.realism_setup import realism_metrics
 from engine.scenario import ROBOT_TYPES
 
 if TYPE_CHECKING:
@@ -57,7 +58,7 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
     for rec in obs.auctions:
         if rec.status == "closed" and rec.kind in open_times and rec.open_time is not None:
             open_times[rec.kind].append(rec.open_time)
-    return {
+    out = {
         "sites_found": field.sites_found,
         "sites_total": len(field.sites),
         # per site in world order: when a scout first saw it (None: not yet found)
@@ -82,6 +83,8 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
         "planner_queries": ctx.planner.stats.queries,
         "planner_ompl_queries": ctx.planner.stats.ompl_queries,
     }
+    out.update(realism_metrics(ctx))
+    return out
 
 
 def _partial(robot: Any) -> float:

@@ -174,11 +174,22 @@ class RobotCore:
         if length <= 0.0:
             self.pos = path[-1]
             return
-        self.motion = Motion(float(self.env.now), path, length, self.speed)
+        speed = self.leg_speed()
+        self.motion = Motion(float(self.env.now), path, length, speed)
         if report:
             self.heartbeat()
-        yield self.env.timeout(length / self.speed)
+        yield self.env.timeout(length / speed)
         self._end_motion(length)
+
+    def leg_speed(self) -> float:
+        """This leg's speed: the nominal one, or a seeded draw under uncertain work."""
+        d = self.ctx.durations
+        return self.speed if d is None else d.leg_speed(self.speed)
+
+    def work_s(self, mean: float) -> float:
+        """How long a piece of work (dig, transfer, unload) of this mean duration takes."""
+        d = self.ctx.durations
+        return mean if d is None else d.work(mean)
 
     def _end_motion(self, travelled: float | None = None) -> None:
         m = self.motion

@@ -53,6 +53,7 @@ class Excavator(Robot):
         self.ahead: list[str] = []
         self.early: dict[str, Hauler] = {}  # haulers that came for one of them and stand by
         self._transport_serial = 0
+        self.transfer_now_s = self.ctx.scenario.timing.transfer_s  # the transfer under way
 
     def load(self) -> int:
         return self.bucket
@@ -105,8 +106,9 @@ class Excavator(Robot):
         dig_s = cfg.timing.dig_s
         haul_s = dist((site.x, site.y), self.ctx.world.plant) / cfg.speeds.hauler
         lead = self.ctx.policy.transport_lead_s(haul_s, dig_s)
+        took = self.work_s(dig_s)  # the lead is planned on the mean dig; this one may differ
         if lead <= 0.0:
-            yield self.env.timeout(dig_s)
+            yield self.env.timeout(took)
             return
         now, later = transports_due(
             site.remaining, len(self.ahead), dig_s, cfg.timing.transfer_s, lead
@@ -114,11 +116,12 @@ class Excavator(Robot):
         for _ in range(now):
             self._auction_ahead(site)
         if later is None:
-            yield self.env.timeout(dig_s)
+            yield self.env.timeout(took)
         else:
-            yield self.env.timeout(later)
+            first = min(later, took)
+            yield self.env.timeout(first)
             self._auction_ahead(site)
-            yield self.env.timeout(dig_s - later)
+            yield self.env.timeout(took - first)
 
     def _transport_id(self, kind: str) -> str:
         """A task id never used before: `t` for a transport auctioned ahead, `r` for one
@@ -238,8 +241,9 @@ class Excavator(Robot):
 
     def transfer(self, hauler: Hauler, site: SiteState) -> Any:
         self.state = "loading"
+        self.transfer_now_s = self.work_s(self.ctx.scenario.timing.transfer_s)
         hauler.loading_from = self
-        yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
+        yield self.env.timeout(self.transfer_now_s)
         hauler.loading_from = None
         if not hauler.can_receive(self):
             return  # it failed or left while we worked: the mineral is still in the bucket

@@ -140,7 +140,7 @@ class Hauler(Robot):
         if dist(p, (g.x, g.y)) > NEAR:
             yield from self.go_to((g.x, g.y))
         self.state = "loading"
-        yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
+        yield self.env.timeout(self.work_s(self.ctx.scenario.timing.transfer_s))
         if g in self.ctx.field.ground:
             self.bin = 1
             self.ctx.field.pick_ground(g, self.name)
@@ -148,8 +148,13 @@ class Hauler(Robot):
     def deliver(self) -> Any:
         self.state = "carrying"
         yield from self.drive(self.ctx.planner.plan(self.pos, self.ctx.world.plant), report=True)
-        self.state = "unloading"
-        yield self.env.timeout(self.ctx.scenario.timing.unload_s)
+        unload_s = self.work_s(self.ctx.scenario.timing.unload_s)
+        docks = self.ctx.docks
+        if docks is None:
+            self.state = "unloading"
+            yield self.env.timeout(unload_s)
+        else:
+            yield from docks.unload(self, unload_s)
         self.bin = 0
         self.ctx.field.note_delivery(self.name)
 
@@ -177,6 +182,8 @@ class Hauler(Robot):
             t += timing.unload_s
         for a in self.queue:
             t += 2 * dist(plant, a.location) / v + timing.transfer_s + timing.unload_s
+        if self.ctx.docks is not None:  # the queue it can see at the plant now
+            t += self.ctx.docks.expected_wait_s(timing.unload_s)
         return t, plant
 
     # --- Policy 2: follow the partner excavator ------------------------------------------
@@ -204,7 +211,7 @@ class Hauler(Robot):
         woken = self.wait_for_wake()
         yield self._loaded | woken
         if self.loading_from is not None:  # a transfer has begun: stay until it ends
-            yield self._loaded | self.env.timeout(self.ctx.scenario.timing.transfer_s)
+            yield self._loaded | self.env.timeout(self.loading_from.transfer_now_s)
         self._loaded = None
         exc.partner_left(self)
         if self.bin:

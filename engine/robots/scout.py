@@ -94,15 +94,16 @@ class Scout(Robot):
         if not hits:
             yield from self.drive(path)
             return
-        self.motion = Motion(float(self.env.now), path, along, self.speed)
+        speed = self.leg_speed()
+        self.motion = Motion(float(self.env.now), path, along, speed)
         t0, done = float(self.env.now), 0.0
         for d, _, site in hits:
             if d > done:
-                yield self.env.timeout(t0 + d / self.speed - float(self.env.now))
+                yield self.env.timeout(t0 + d / speed - float(self.env.now))
                 done = d
             self.detect(site)
         if along > done:
-            yield self.env.timeout(t0 + along / self.speed - float(self.env.now))
+            yield self.env.timeout(t0 + along / speed - float(self.env.now))
         self._end_motion(along)
 
     def detect(self, site: SiteState) -> None:
