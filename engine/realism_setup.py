@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from engine.durations import Durations
+from engine.energy import EnergyModel
 from engine.plant import Plant
 
 if TYPE_CHECKING:
@@ -20,6 +21,8 @@ def install_realism(ctx: MissionContext, work_rng: np.random.Generator) -> None:
         ctx.durations = Durations(sc.uncertainty, work_rng)
     if sc.docks.enabled:
         ctx.docks = Plant(ctx.env, sc.docks.count)
+    if sc.energy.enabled:
+        ctx.energy = EnergyModel(sc.energy, sc, ctx.world.plant, ctx.env)
 
 
 def realism_metrics(ctx: MissionContext) -> dict[str, Any]:
@@ -29,4 +32,6 @@ def realism_metrics(ctx: MissionContext) -> dict[str, Any]:
         out.update(ctx.docks.metrics())
     if ctx.durations is not None:
         out["work_draws"] = ctx.durations.draws
+    if ctx.energy is not None:
+        out.update(ctx.energy.metrics(list(ctx.robots.values())))
     return out

@@ -77,7 +77,7 @@ class Excavator(Robot):
             return
         site.worker = site.last_worker = self.name
         try:
-            while site.remaining > 0 and not self.leaving:
+            while site.remaining > 0 and not self.leaving and self.energy_for_a_bucket(site):
                 self.state = "digging"
                 yield from self.dig(site)
                 site.remaining -= 1
@@ -97,6 +97,16 @@ class Excavator(Robot):
                 site.worker = None
             self._drop_ahead()
         self.finish(a, "done" if site.remaining == 0 else "released")
+
+    def energy_for_a_bucket(self, site: SiteState) -> bool:
+        """Energy: enough for one more dig and transfer and the drive to a charger? If not,
+        the site is released (offered again) and I go to charge."""
+        energy = self.ctx.energy
+        if energy is None or energy.can_dig_one_more(self, (site.x, site.y)):
+            return True
+        assert self.battery is not None
+        self.battery.must_charge = True
+        return False
 
     def dig(self, site: SiteState) -> Any:
         """Dig one bucket. Under a policy with a transport lead L, the transport of every mineral

@@ -41,6 +41,10 @@ class Hauler(Robot):
 
     def when_free(self) -> Any:
         if self.following():
+            site = self.partner_site
+            assert site is not None
+            if not self.energy_allows("transport", site):
+                return  # to the charger first (`Robot.life`)
             yield from self.follow_partner()
         else:
             yield from super().when_free()

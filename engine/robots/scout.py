@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from engine.geometry import Point, dist, first_entry
+from engine.geometry import Point, dist, first_entry, path_length
 from engine.messages import Handoff, Hello, Takeover
 from engine.planning import Path, PlanningError
 from engine.policies import OpenAuction
@@ -70,12 +70,21 @@ class Scout(Robot):
                     except PlanningError:
                         self.ctx.observer.emit("unreachable", robot=self.name, cell=cell)
                     else:
+                        if self.battery is not None and not self._energy_for(path):
+                            yield from self.recharge()
+                            continue  # then this cell again, from the charger
                         yield from self.sweep_to(path)
                         self.ctx.field.mark_scanned(cell)
                 self.cursor += 1
             else:
                 self.state = "idle"
                 yield self.wait_for_wake()
+
+    def _energy_for(self, path: Path) -> bool:
+        """Enough to scan along this path and reach a charger from its end?"""
+        energy, bat = self.ctx.energy, self.battery
+        assert energy is not None and bat is not None
+        return energy.can_drive(self, path_length(path), path[-1], bat.spec.work_kw)
 
     def sweep_to(self, path: Path) -> Any:
         """Drive a path, noticing every site that comes within the scan radius on the way."""
@@ -96,6 +105,8 @@ class Scout(Robot):
             return
         speed = self.leg_speed()
         self.motion = Motion(float(self.env.now), path, along, speed)
+        if self.battery is not None:
+            self.energy_changed()
         t0, done = float(self.env.now), 0.0
         for d, _, site in hits:
             if d > done:
