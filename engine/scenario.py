@@ -15,7 +15,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from engine.realism import Docks, Energy, Radio, Uncertainty
+from engine.realism import Docks, Energy, Radio, Uncertainty, one_task_kj
 
 Coord = Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)]
 """A position: far beyond any area (5 km sides) but bounded, so bucket arithmetic stays exact."""
@@ -182,12 +182,12 @@ class Scenario(_Model):
                     raise ValueError(f"energy.chargers[{i}] must lie inside the area")
             far = max(math.hypot(x - px, y - py) for x in (0, self.width) for y in (0, self.height))
             for rtype in ROBOT_TYPES:
-                b = getattr(self.energy, rtype)
-                need = 2 * far * self.energy.detour * b.drive_kj_per_m
-                if need > b.capacity_kj * (1 - self.energy.reserve):
+                need = one_task_kj(self, rtype, far)
+                cap = getattr(self.energy, rtype).capacity_kj
+                if need > cap * (1 - self.energy.reserve):
                     raise ValueError(
-                        f"energy.{rtype}.capacity_kj: {b.capacity_kj:g} kJ cannot take a {rtype} "
-                        f"from the plant to the area's far corner and back ({need:.4g} kJ "
+                        f"energy.{rtype}.capacity_kj: {cap:g} kJ cannot take {rtype}s from the "
+                        f"plant to a task at the area's far corner and back ({need:.4g} kJ "
                         f"beside the reserve)"
                     )
         if self.radio.enabled and self.radio.silent_timeout_s <= self.protocol.failure_timeout_s:

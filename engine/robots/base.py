@@ -153,9 +153,10 @@ class Robot(Bidder, Recovery):
         energy = self.ctx.energy
         if energy is None or energy.feasible(self, task_type, where):
             return True
-        assert self.battery is not None
-        if not self.battery.must_charge:
-            self.battery.must_charge = True
+        bat = self.battery
+        assert bat is not None
+        if not bat.must_charge and bat.level_at(float(self.env.now)) < bat.capacity:
+            bat.must_charge = True  # (full and still out of reach: charging would not help)
             self.wake()
         return False
 

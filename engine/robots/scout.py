@@ -84,6 +84,8 @@ class Scout(Robot):
         """Enough to scan along this path and reach a charger from its end?"""
         energy, bat = self.ctx.energy, self.battery
         assert energy is not None and bat is not None
+        if bat.level_at(float(self.env.now)) >= bat.capacity:
+            return True  # full: charging cannot help (validation keeps this from happening)
         return energy.can_drive(self, path_length(path), path[-1], bat.spec.work_kw)
 
     def sweep_to(self, path: Path) -> Any:
