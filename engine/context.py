@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from engine.energy import EnergyModel
     from engine.plant import Plant
     from engine.policies import Policy
+    from engine.radio import RadioNet
     from engine.robots.base import Robot
 
 
@@ -56,6 +57,7 @@ class MissionContext:
         self.durations: Durations | None = None
         self.docks: Plant | None = None
         self.energy: EnergyModel | None = None
+        self.radio: RadioNet | None = None
 
     # --- what an auctioneer needs (engine.auction_house.AuctionPorts) ----------------------
     @property

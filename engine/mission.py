@@ -16,7 +16,6 @@ import numpy as np
 import simpy
 
 from engine.auction_rules import AuctionRecord
-from engine.bus import EmbeddedBus
 from engine.context import MissionContext
 from engine.errors import CommandRejected, UnknownRobotError
 from engine.events import Event
@@ -24,7 +23,7 @@ from engine.messages import PolicyChange
 from engine.metrics import mission_metrics
 from engine.planning import OmplPlanner, PathPlanner, StraightLinePlanner
 from engine.policies import make_policy, resolve_policy
-from engine.realism_setup import install_realism
+from engine.realism_setup import install_realism, make_bus
 from engine.robots import OPERATOR, Excavator, Hauler, Operator, Robot, Scout
 from engine.robots.scout import site_task_id
 from engine.scenario import ROBOT_TYPES, Scenario
@@ -64,9 +63,7 @@ class Mission(MissionViews):
             scenario, self.world, chosen, self.env, make_policy(self.initial_policy)
         )
         install_realism(ctx, work_rng)
-        ctx.bus = EmbeddedBus(
-            self.env, scenario.bus, bus_rng, ctx.observer.record_message, ctx.liveness
-        )
+        ctx.bus = make_bus(ctx, bus_rng)
         self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
         self._counts: dict[str, int] = {t: 0 for t in ROBOT_TYPES}
         team = scenario.team

@@ -7,9 +7,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from engine.bus import EmbeddedBus
 from engine.durations import Durations
 from engine.energy import EnergyModel
 from engine.plant import Plant
+from engine.radio import RadioNet, RangedBus
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -25,6 +27,17 @@ def install_realism(ctx: MissionContext, work_rng: np.random.Generator) -> None:
         ctx.energy = EnergyModel(sc.energy, sc, ctx.world.plant, ctx.env)
 
 
+def make_bus(ctx: MissionContext, bus_rng: np.random.Generator) -> EmbeddedBus:
+    """The broadcast bus, or with a limited radio range the bus that reaches only robots in
+    reach of the sender."""
+    sc = ctx.scenario
+    args = (ctx.env, sc.bus, bus_rng, ctx.observer.record_message, ctx.liveness)
+    if not sc.radio.enabled:
+        return EmbeddedBus(*args)
+    ctx.radio = RadioNet(sc.radio, ctx)
+    return RangedBus(ctx.radio, *args)
+
+
 def realism_metrics(ctx: MissionContext) -> dict[str, Any]:
     """The figures of the options that are on (none for the reference model)."""
     out: dict[str, Any] = {}
@@ -34,4 +47,6 @@ def realism_metrics(ctx: MissionContext) -> dict[str, Any]:
         out["work_draws"] = ctx.durations.draws
     if ctx.energy is not None:
         out.update(ctx.energy.metrics(list(ctx.robots.values())))
+    if ctx.radio is not None:
+        out.update(ctx.radio.metrics())
     return out

@@ -92,6 +92,10 @@ class Robot(Bidder, Recovery):
 
     def when_free(self) -> Any:
         """Nothing to do: wait until something changes (where the policy says, if it does)."""
+        radio = self.ctx.radio
+        if radio is not None and not radio.in_contact(self.name):
+            yield from self.regain_contact()
+            return
         spot = self.ctx.policy.standby(self.ctx, self.name)
         if spot is None:
             self.state = "idle"
@@ -166,6 +170,18 @@ class Robot(Bidder, Recovery):
         obs.failures += 1
         self.fail()
         obs.emit("robot_failed", robot=self.name, x=self.pos[0], y=self.pos[1], cause="energy")
+
+    def regain_contact(self) -> Any:
+        """Radio range: an idle robot out of the base station's reach drives back into it,
+        where auctions can reach it (and its own be heard)."""
+        radio = self.ctx.radio
+        assert radio is not None
+        self.state = "travelling"
+        try:
+            yield from self.go_to(radio.contact_point(self.pos))
+        except PlanningError:
+            self.state = "idle"
+            yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
 
     def on_revoked(self) -> None:
         """Hook: tidy up after the current task was revoked mid-way."""

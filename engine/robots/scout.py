@@ -76,6 +76,8 @@ class Scout(Robot):
                         yield from self.sweep_to(path)
                         self.ctx.field.mark_scanned(cell)
                 self.cursor += 1
+            elif self.ctx.radio is not None and not self.ctx.radio.in_contact(self.name):
+                yield from self.regain_contact()  # its search is done: back within reach
             else:
                 self.state = "idle"
                 yield self.wait_for_wake()
