@@ -120,20 +120,22 @@ class RadioNet:
         hb = board.last_heartbeat(robot.name, peer)
         if hb is None:
             return False
+        speeds = self.ctx.scenario.speeds
         nodes = [(robot.name, robot.position()[0], self.cfg.range_m)]
         nodes.append((BASE, self.ctx.world.plant, self.cfg.base_range_m or self.cfg.range_m))
+        slack = [0.0, 0.0]
         for name in board.names:
             if name in (robot.name, BASE, peer) or name in robot.down:
                 continue
             other = board.last_heartbeat(robot.name, name)
             if other is not None and now - other.t <= self.cfg.silent_timeout_s:
                 nodes.append((name, (other.x, other.y), self.cfg.range_m))
+                slack.append(getattr(speeds, other.rtype, 0.0) * max(0.0, now - other.t))
         nodes.append((peer, (hb.x, hb.y), self.cfg.range_m))
-        # it may have driven on since its heartbeat: reachable only if it is wherever it went
-        speed = getattr(self.ctx.scenario.speeds, hb.rtype, 0.0)
-        slack = np.zeros(len(nodes))
-        slack[-1] = speed * max(0.0, now - hb.t)
-        reach = _reach_of(nodes, self.cfg.hops, slack)
+        # each may have driven on since its heartbeat: a link counts only if it holds
+        # wherever they went
+        slack.append(getattr(speeds, hb.rtype, 0.0) * max(0.0, now - hb.t))
+        reach = _reach_of(nodes, self.cfg.hops, np.array(slack))
         return not bool(reach[0, -1])
 
     # --- the researcher's view ---------------------------------------------------------

@@ -13,7 +13,15 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    model_serializer,
+    model_validator,
+)
 
 from engine.realism import Docks, Energy, Radio, Uncertainty, one_task_kj
 
@@ -141,6 +149,17 @@ class Scenario(_Model):
     uncertainty: Uncertainty = Uncertainty()
     radio: Radio = Radio()
 
+    @model_serializer(mode="wrap")
+    def _omit_options_left_alone(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """A realism section at its defaults (off) is left out of the dump, so a scenario
+        that does not use the options keeps the content hash (and stored form) it had before
+        they existed."""
+        data: dict[str, Any] = handler(self)
+        for key, default in _OPTION_DEFAULTS.items():
+            if getattr(self, key) == default:
+                data.pop(key, None)
+        return data
+
     @property
     def plant_xy(self) -> tuple[float, float]:
         """The processing plant: the given point, or the centre of the area."""
@@ -223,6 +242,14 @@ class Scenario(_Model):
             return Scenario.model_validate(data)  # a scaled scenario must pass every check too
         except ValidationError as exc:
             raise ScenarioError(f"scale {k}: {_error_text(exc)}") from None
+
+
+_OPTION_DEFAULTS: dict[str, Any] = {
+    "energy": Energy(),
+    "docks": Docks(),
+    "uncertainty": Uncertainty(),
+    "radio": Radio(),
+}
 
 
 def reference_scenario() -> Scenario:
