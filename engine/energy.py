@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 
     from engine.robots.core import RobotCore
     from engine.scenario import Scenario
+    from engine.world import World
 
 WORK_STATES = frozenset({"digging", "loading", "unloading", "scanning"})
 
@@ -69,11 +70,13 @@ class Battery:
 
 
 class EnergyModel:
-    def __init__(self, cfg: Energy, scenario: Scenario, plant: Point, env: simpy.Environment):
+    def __init__(self, cfg: Energy, scenario: Scenario, world: World, env: simpy.Environment):
         self.cfg = cfg
         self.env = env
-        self.plant = plant
-        self.chargers: tuple[Point, ...] = (plant, *((float(x), float(y)) for x, y in cfg.chargers))
+        self.plant = plant = world.plant
+        # a charger a random crater happens to cover is out of service for the run
+        usable = [(float(x), float(y)) for x, y in cfg.chargers if world.is_free(x, y)]
+        self.chargers: tuple[Point, ...] = (plant, *usable)
         unc = scenario.uncertainty
         self.margin = 1.0 + 2.0 * unc.work_cv if unc.enabled else 1.0
         t = scenario.timing

@@ -52,6 +52,7 @@ class RadioNet:
         self._key: tuple[float, int] | None = None
         self._names: list[str] = []
         self._reach = np.zeros((0, 0), dtype=bool)
+        self._contact = np.zeros(0, dtype=bool)
         self._index: dict[str, int] = {}
         self.detections = 0
         self.false_detections = 0
@@ -80,7 +81,14 @@ class RadioNet:
         nodes = self._nodes()
         self._names = [n for n, _, _ in nodes]
         self._index = {n: i for i, n in enumerate(self._names)}
-        self._reach = _reach_of(nodes, self.cfg.hops)
+        link = _links(nodes)
+        self._reach = hop_reach(link, self.cfg.hops)
+        # in contact: the base reaches me with a hop to spare, for the robots around it
+        self._contact = (
+            hop_reach(link, self.cfg.hops - 1)[:, 0]
+            if self.cfg.hops > 1
+            else np.array([dist(p, nodes[0][1]) <= self.cfg.range_m for _, p, _ in nodes])
+        )
 
     def receivers(self, sender: str) -> list[str]:
         """Who hears a message this sender sends now (the sender excluded)."""
@@ -98,23 +106,38 @@ class RadioNet:
         """Does this robot reach the base station (and so the operator and the plant)?"""
         self._refresh()
         i = self._index.get(name)
-        return i is not None and bool(self._reach[i, self._index[BASE]])
+        return i is not None and bool(self._contact[i])
 
     def contact_point(self, p: Point) -> Point:
         """Where to drive to regain contact: towards the plant, well inside the base's reach."""
         plant = self.ctx.world.plant
         d = dist(p, plant)
-        keep = 0.8 * (self.cfg.base_range_m or self.cfg.range_m)
+        cfg = self.cfg
+        keep = 0.8 * (cfg.base_range_m if cfg.hops > 1 and cfg.base_range_m else cfg.range_m)
         if d <= keep:
             return plant
-        f = keep / d
-        return (plant[0] + (p[0] - plant[0]) * f, plant[1] + (p[1] - plant[1]) * f)
+        world = self.ctx.world
+        r = keep
+        while r > 0.0:  # the first free point on the way in (a crater may cover the first)
+            f = r / d
+            q = (plant[0] + (p[0] - plant[0]) * f, plant[1] + (p[1] - plant[1]) * f)
+            if world.is_free(*q):
+                return q
+            r -= 1.0
+        return plant
 
     # --- what a robot believes ---------------------------------------------------------
     def presumed_out_of_reach(self, robot: RobotCore, peer: str, now: float) -> bool:
         """Silent `peer`: by the positions this robot last heard of (its peers' heartbeats),
         would it be out of reach? Then it is presumed out of range, until silent_timeout_s."""
         board = self.ctx.liveness
+        if (
+            self.cfg.base_range_m > 0
+            and robot.name != BASE
+            and now - board.last_heard(robot.name, BASE)
+            > 2 * self.ctx.scenario.protocol.heartbeat_s
+        ):
+            return True  # I have lost the base station's beacon: I am the one out of range
         if now - board.last_heard(robot.name, peer) > self.cfg.silent_timeout_s:
             return False
         hb = board.last_heartbeat(robot.name, peer)
@@ -166,16 +189,20 @@ def _reach_of(
     range; the base station and a robot within the base's range (its mast and power make the
     link, both ways). `slack`: how far each node may be from the position given (a link must
     hold wherever it is)."""
+    return hop_reach(_links(nodes, slack), hops)
+
+
+def _links(nodes: list[tuple[str, Point, float]], slack: np.ndarray | None = None) -> np.ndarray:
     pos = np.array([p for _, p, _ in nodes], dtype=float).reshape(len(nodes), 2)
     radius = np.array([r for _, _, r in nodes], dtype=float)
     d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
     if slack is not None:
         d = d + slack[:, None] + slack[None, :]
-    link = d <= np.minimum(radius[:, None], radius[None, :])
+    link: np.ndarray = d <= np.minimum(radius[:, None], radius[None, :])
     for b, (name, _, r) in enumerate(nodes):
         if name == BASE:
             link[b, :] = link[:, b] = d[b, :] <= r
-    return hop_reach(link, hops)
+    return link
 
 
 class RangedBus(EmbeddedBus):

@@ -24,7 +24,7 @@ def install_realism(ctx: MissionContext, work_rng: np.random.Generator) -> None:
     if sc.docks.enabled:
         ctx.docks = Plant(ctx.env, sc.docks.count)
     if sc.energy.enabled:
-        ctx.energy = EnergyModel(sc.energy, sc, ctx.world.plant, ctx.env)
+        ctx.energy = EnergyModel(sc.energy, sc, ctx.world, ctx.env)
 
 
 def make_bus(ctx: MissionContext, bus_rng: np.random.Generator) -> EmbeddedBus:

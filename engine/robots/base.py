@@ -101,6 +101,8 @@ class Robot(Bidder, Recovery):
             self.state = "idle"
             yield self.wait_for_wake()
             return
+        if self.battery is not None and not self.energy_for_trip(spot):
+            return  # to the charger first (`life`)
         if dist(self.pos, spot) > NEAR:
             self.state = "travelling"
             try:
@@ -152,6 +154,16 @@ class Robot(Bidder, Recovery):
         self._bid_situation = ()
         self.consider_bids()
 
+    def energy_for_trip(self, goal: tuple[float, float]) -> bool:
+        """Energy to drive there and on to a charger? If not, I charge first."""
+        bat, energy = self.battery, self.ctx.energy
+        assert bat is not None and energy is not None
+        length = dist(self.pos, goal) * energy.cfg.detour
+        if energy.can_drive(self, length, goal) or bat.level_at(self.env.now) >= bat.capacity:
+            return True
+        bat.must_charge = True
+        return False
+
     def energy_allows(self, task_type: str, where: tuple[float, float]) -> bool:
         """Could I do this task and still reach a charger? If not, I go to charge."""
         energy = self.ctx.energy
@@ -176,9 +188,15 @@ class Robot(Bidder, Recovery):
         where auctions can reach it (and its own be heard)."""
         radio = self.ctx.radio
         assert radio is not None
+        spot = radio.contact_point(self.pos)
+        if self.battery is not None and not self.energy_for_trip(spot):
+            if self.rtype != "scout":
+                return  # to the charger first (`life`): it is in reach anyway
+            yield from self.recharge()
+            return
         self.state = "travelling"
         try:
-            yield from self.go_to(radio.contact_point(self.pos))
+            yield from self.go_to(spot)
         except PlanningError:
             self.state = "idle"
             yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)

@@ -54,7 +54,8 @@ class Hauler(Robot):
         self.state = "travelling"
         yield from self.go_to(a.location)
         exc = self._excavator_here(lambda e: e.expects(a.task_id))
-        if exc is None and self.ctx.policy.early_transports():
+        if exc is None and (self.ctx.policy.early_transports() or self.ctx.radio is not None):
+            # (radio range: the excavator may have driven into reach to offer this transport)
             exc = yield from self.wait_for_excavator(a)
         if exc is not None and exc.hauler_arrived(self, a.task_id):
             yield from self.wait_loaded(exc, a.task_id)
@@ -205,6 +206,9 @@ class Hauler(Robot):
             if working is not None and dist(working, site) > NEAR:
                 self.partner_site = working  # its heartbeat says it digs elsewhere: go there
                 return
+            if self.ctx.radio is not None and self._partner_left_site():
+                self.partner_site = None  # (a TaskDone out of reach: its heartbeat tells)
+                return
             # not there (yet, or any more): wait for news rather than spin
             self.state = "idle"
             yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
@@ -275,6 +279,14 @@ class Hauler(Robot):
         if working is not None:
             self.partner_site = working
             self.wake()
+
+    def _partner_left_site(self) -> bool:
+        """My partner's latest heartbeat shows it holds no site any more (radio range: the
+        TaskDone that said so did not reach me)."""
+        if self.partner is None:
+            return False
+        hb = self.ctx.liveness.last_heartbeat(self.name, self.partner)
+        return hb is not None and not any(t.startswith("excavate@") for t in hb.tasks)
 
     def _partner_works_at(self) -> Point | None:
         """Where my partner stands digging, by its last heartbeat (None: it does not, or it is
