@@ -5,7 +5,6 @@ from __future__ import annotations
 import statistics
 from typing import TYPE_CHECKING, Any
 
-from engine.realism_setup import realism_metrics
 from engine.scenario import ROBOT_TYPES
 
 if TYPE_CHECKING:
@@ -93,3 +92,17 @@ def _partial(robot: Any) -> float:
     if m is None:
         return 0.0
     return float(min(m.length, (robot.env.now - m.t0) * m.speed))
+
+
+def realism_metrics(ctx: MissionContext) -> dict[str, Any]:
+    """The figures of the realism options that are on (none for the reference model)."""
+    out: dict[str, Any] = {}
+    if ctx.docks is not None:
+        out.update(ctx.docks.metrics())
+    if ctx.durations is not None:
+        out["work_draws"] = ctx.durations.draws
+    if ctx.energy is not None:
+        out.update(ctx.energy.metrics(list(ctx.robots.values())))
+    if ctx.radio is not None:
+        out.update(ctx.radio.metrics())
+    return out

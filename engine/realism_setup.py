@@ -3,7 +3,7 @@ if the scenario enables it."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -36,17 +36,3 @@ def make_bus(ctx: MissionContext, bus_rng: np.random.Generator) -> EmbeddedBus:
         return EmbeddedBus(*args)
     ctx.radio = RadioNet(sc.radio, ctx)
     return RangedBus(ctx.radio, *args)
-
-
-def realism_metrics(ctx: MissionContext) -> dict[str, Any]:
-    """The figures of the options that are on (none for the reference model)."""
-    out: dict[str, Any] = {}
-    if ctx.docks is not None:
-        out.update(ctx.docks.metrics())
-    if ctx.durations is not None:
-        out["work_draws"] = ctx.durations.draws
-    if ctx.energy is not None:
-        out.update(ctx.energy.metrics(list(ctx.robots.values())))
-    if ctx.radio is not None:
-        out.update(ctx.radio.metrics())
-    return out
