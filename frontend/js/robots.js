@@ -105,7 +105,7 @@ export class RobotTable {
       this.virtual = new VirtualRows({
         scroller: table.parentElement,
         body: this.tbody,
-        spacer: (px) => h("tr", { class: "spacer", style: `height:${px}px` }, h("td", { colspan: "6" })),
+        spacer: (px) => h("tr", { class: "spacer", style: `height:${px}px` }, h("td", { colspan: "7" })),
         rowHeight: ROW_PX,
         offset: () => this.headPx,
         render: (i) => {
