@@ -26,7 +26,11 @@ from engine.world import World
 
 if TYPE_CHECKING:
     from engine.bus import EmbeddedBus
+    from engine.durations import Durations
+    from engine.energy import EnergyModel
+    from engine.plant import Plant
     from engine.policies import Policy
+    from engine.radio import RadioNet
     from engine.robots.base import Robot
 
 
@@ -49,6 +53,11 @@ class MissionContext:
         self.liveness = Liveness()
         self.robots: dict[str, Robot] = {}
         self.field = Field(world, env, self.observer)
+        # the realism options (docs/model.md): None while off, so the reference model pays nothing
+        self.durations: Durations | None = None
+        self.docks: Plant | None = None
+        self.energy: EnergyModel | None = None
+        self.radio: RadioNet | None = None
 
     # --- what an auctioneer needs (engine.auction_house.AuctionPorts) ----------------------
     @property

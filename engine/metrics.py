@@ -57,7 +57,7 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
     for rec in obs.auctions:
         if rec.status == "closed" and rec.kind in open_times and rec.open_time is not None:
             open_times[rec.kind].append(rec.open_time)
-    return {
+    out = {
         "sites_found": field.sites_found,
         "sites_total": len(field.sites),
         # per site in world order: when a scout first saw it (None: not yet found)
@@ -82,6 +82,8 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
         "planner_queries": ctx.planner.stats.queries,
         "planner_ompl_queries": ctx.planner.stats.ompl_queries,
     }
+    out.update(realism_metrics(ctx))
+    return out
 
 
 def _partial(robot: Any) -> float:
@@ -90,3 +92,17 @@ def _partial(robot: Any) -> float:
     if m is None:
         return 0.0
     return float(min(m.length, (robot.env.now - m.t0) * m.speed))
+
+
+def realism_metrics(ctx: MissionContext) -> dict[str, Any]:
+    """The figures of the realism options that are on (none for the reference model)."""
+    out: dict[str, Any] = {}
+    if ctx.docks is not None:
+        out.update(ctx.docks.metrics())
+    if ctx.durations is not None:
+        out["work_draws"] = ctx.durations.draws
+    if ctx.energy is not None:
+        out.update(ctx.energy.metrics(list(ctx.robots.values())))
+    if ctx.radio is not None:
+        out.update(ctx.radio.metrics())
+    return out

@@ -16,7 +16,6 @@ import numpy as np
 import simpy
 
 from engine.auction_rules import AuctionRecord
-from engine.bus import EmbeddedBus
 from engine.context import MissionContext
 from engine.errors import CommandRejected, UnknownRobotError
 from engine.events import Event
@@ -24,6 +23,7 @@ from engine.messages import PolicyChange
 from engine.metrics import mission_metrics
 from engine.planning import OmplPlanner, PathPlanner, StraightLinePlanner
 from engine.policies import make_policy, resolve_policy
+from engine.realism_setup import install_realism, make_bus
 from engine.robots import OPERATOR, Excavator, Hauler, Operator, Robot, Scout
 from engine.robots.scout import site_task_id
 from engine.scenario import ROBOT_TYPES, Scenario
@@ -52,8 +52,9 @@ class Mission(MissionViews):
         self.scenario = scenario
         self.seed = seed
         self.initial_policy = resolve_policy(policy)
-        world_rng, bus_rng, plan_rng = (
-            np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3)
+        # spawn(4)'s first three streams are spawn(3)'s: the reference runs are unchanged
+        world_rng, bus_rng, plan_rng, work_rng = (
+            np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4)
         )
         self.world = generate_world(scenario, world_rng)
         chosen = make_planner(planner, self.world, plan_rng)
@@ -61,9 +62,8 @@ class Mission(MissionViews):
         self.ctx = ctx = MissionContext(
             scenario, self.world, chosen, self.env, make_policy(self.initial_policy)
         )
-        ctx.bus = EmbeddedBus(
-            self.env, scenario.bus, bus_rng, ctx.observer.record_message, ctx.liveness
-        )
+        install_realism(ctx, work_rng)
+        ctx.bus = make_bus(ctx, bus_rng)
         self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
         self._counts: dict[str, int] = {t: 0 for t in ROBOT_TYPES}
         team = scenario.team

@@ -13,7 +13,17 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    model_serializer,
+    model_validator,
+)
+
+from engine.realism import Docks, Energy, Radio, Uncertainty, one_task_kj
 
 Coord = Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)]
 """A position: far beyond any area (5 km sides) but bounded, so bucket arithmetic stays exact."""
@@ -133,6 +143,22 @@ class Scenario(_Model):
     # action) for this long cannot finish as it stands: it ends `stalled`, saying what is stuck
     stall_timeout_s: Annotated[Period, Field(le=1e7)] = 3600.0
     start_spread: Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)] = 3.0
+    # the realism options (engine/realism.py, docs/model.md), each off by default
+    energy: Energy = Energy()
+    docks: Docks = Docks()
+    uncertainty: Uncertainty = Uncertainty()
+    radio: Radio = Radio()
+
+    @model_serializer(mode="wrap")
+    def _omit_options_left_alone(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """A realism section at its defaults (off) is left out of the dump, so a scenario
+        that does not use the options keeps the content hash (and stored form) it had before
+        they existed."""
+        data: dict[str, Any] = handler(self)
+        for key, default in _OPTION_DEFAULTS.items():
+            if getattr(self, key) == default:
+                data.pop(key, None)
+        return data
 
     @property
     def plant_xy(self) -> tuple[float, float]:
@@ -164,7 +190,27 @@ class Scenario(_Model):
             )
         if self.sites > 0.5 * cells:
             raise ValueError("sites: more sites than fit apart on the search grid")
+        self._realism_feasible()
         return self
+
+    def _realism_feasible(self) -> None:
+        px, py = self.plant_xy
+        if self.energy.enabled:
+            for i, (x, y) in enumerate(self.energy.chargers):
+                if not (0 <= x <= self.width and 0 <= y <= self.height):
+                    raise ValueError(f"energy.chargers[{i}] must lie inside the area")
+            far = max(math.hypot(x - px, y - py) for x in (0, self.width) for y in (0, self.height))
+            for rtype in ROBOT_TYPES:
+                need = one_task_kj(self, rtype, far)
+                cap = getattr(self.energy, rtype).capacity_kj
+                if need > cap * (1 - self.energy.reserve):
+                    raise ValueError(
+                        f"energy.{rtype}.capacity_kj: {cap:g} kJ cannot take {rtype}s from the "
+                        f"plant to a task at the area's far corner and back ({need:.4g} kJ "
+                        f"beside the reserve)"
+                    )
+        if self.radio.enabled and self.radio.silent_timeout_s <= self.protocol.failure_timeout_s:
+            raise ValueError("radio.silent_timeout_s must exceed protocol.failure_timeout_s")
 
     def scaled(self, k: int) -> Scenario:
         """K times the team, sites, minerals and craters on an area √K wider (same density)."""
@@ -190,10 +236,20 @@ class Scenario(_Model):
             random_craters=self.random_craters * k,
             name=f"{self.name}x{k}",
         )
+        if self.energy.chargers:
+            data["energy"]["chargers"] = [(x * s, y * s) for x, y in self.energy.chargers]
         try:
             return Scenario.model_validate(data)  # a scaled scenario must pass every check too
         except ValidationError as exc:
             raise ScenarioError(f"scale {k}: {_error_text(exc)}") from None
+
+
+_OPTION_DEFAULTS: dict[str, Any] = {
+    "energy": Energy(),
+    "docks": Docks(),
+    "uncertainty": Uncertainty(),
+    "radio": Radio(),
+}
 
 
 def reference_scenario() -> Scenario:

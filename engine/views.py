@@ -45,6 +45,8 @@ class MissionViews:
             "load": r.load(),
             "alive": r.alive,
         }
+        if r.battery is not None:
+            d["charge"] = round(r.battery.fraction(self.now), 4)
         if full:
             cur = r.current
             d["task"] = (

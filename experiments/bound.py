@@ -303,6 +303,11 @@ def engine_bound(scenario: Any, seed: int) -> Bound:
     return lower_bound(bound_world(scenario, seed))
 
 
+def _uncertain(scenario: Any) -> bool:
+    unc = getattr(scenario, "uncertainty", None)
+    return bool(unc is not None and unc.enabled)
+
+
 def bound_columns(
     rows: list[dict[str, Any]], scenario: Any, bound_fn: BoundFn
 ) -> list[dict[str, Any]]:
@@ -322,6 +327,8 @@ def bound_columns(
         b = per_seed[seed]
         mk = row.get("makespan_s")
         ok = isinstance(mk, (int, float)) and row.get("status", "completed") == "completed"
+        # uncertain work: drawn durations and speeds can beat the bound's fixed ones
+        ok = ok and not _uncertain(scenario)
         rb = (
             run_bound(b.world, _found_at(row.get("sites_found_at")))
             if ok and b.world is not None

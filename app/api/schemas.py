@@ -165,6 +165,9 @@ class RobotRead(BaseModel):
     task: str | None = None
     alive: bool | None = None
     enabled: bool | None = None
+    charge: float | None = Field(
+        default=None, description="Battery charge, 0-1 (scenarios with energy on; docs/model.md)"
+    )
 
 
 class TaskCreated(BaseModel):

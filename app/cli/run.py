@@ -103,8 +103,30 @@ def summary(m: dict[str, Any]) -> str:
             f"  failures {m['failures']}, re-auctions {m['reauctions']}, minerals dropped "
             f"{m['minerals_dropped']} / recovered {m['minerals_recovered']}"
         )
+    lines.extend(_realism_lines(m))
     lines.append(f"  wall time       {m['wall_s']:.3f} s")
     return "\n".join(lines)
+
+
+def _realism_lines(m: dict[str, Any]) -> list[str]:
+    """The realism options' figures, for those that are on (docs/model.md)."""
+    out = []
+    if "energy_used_kj" in m:
+        used = ", ".join(f"{k} {v:.0f}" for k, v in m["energy_used_kj"].items())
+        charging = ", ".join(f"{k} {v:.0f}" for k, v in m["charging_s"].items())
+        out.append(f"  energy (kJ)     {used}; {m['charges']} charges, {m['ran_dry']} ran dry")
+        out.append(f"  charging (s)    {charging}")
+    if "dock_wait_s" in m:
+        out.append(
+            f"  dock queue      {m['dock_queued']} haulers waited, {m['dock_wait_s']:.0f} s in "
+            f"all (max {m['dock_wait_max_s']:.0f} s)"
+        )
+    if "radio_reach" in m:
+        out.append(
+            f"  radio           reach {m['radio_reach']:.1%}, failure verdicts "
+            f"{m['failure_detections']} ({m['false_failures']} false)"
+        )
+    return out
 
 
 def _bound_text(m: dict[str, Any]) -> str:
@@ -129,14 +151,15 @@ def add_bounds(metrics: dict[str, Any], scen: Scenario, seed: int, faults: bool)
     `lower_bound_s` is the per-run bound (the run's own site discovery times),
     `lower_bound_apriori_s` the world's a-priori one; each with `makespan_ratio…`. Null for a
     run that did not complete, and with faults or operator actions (the bound assumes the
-    scenario's team, fault-free). On a lossy or slow bus the a-priori bound does not rely on
-    the scouts' spiral (as in a sweep); the per-run bound does not need it.
+    scenario's team, fault-free) or uncertain work (it assumes the mean durations). On a lossy
+    or slow bus the a-priori bound does not rely on the scouts' spiral (as in a sweep); the
+    per-run bound does not need it.
     """
     keys = ("lower_bound_s", "lower_bound_apriori_s", "lower_bound_term")
     keys += ("makespan_ratio", "makespan_ratio_apriori")
     metrics.update(dict.fromkeys(keys))
-    if faults or metrics.get("status") != "completed":
-        return
+    if faults or metrics.get("status") != "completed" or scen.uncertainty.enabled:
+        return  # (drawn durations and speeds can beat the bound's fixed ones)
     from experiments.bound import bound_world, lower_bound, run_bound
 
     world = bound_world(scen, seed)

@@ -76,6 +76,9 @@ class Robot(Bidder, Recovery):
             if self.leaving:
                 self.go_quiet()
                 return
+            if self.battery is not None and self.needs_charge():
+                yield from self.recharge()
+                continue
             if self.queue:
                 self.current = self.queue.popleft()
                 yield from self.work(self.current)
@@ -89,11 +92,17 @@ class Robot(Bidder, Recovery):
 
     def when_free(self) -> Any:
         """Nothing to do: wait until something changes (where the policy says, if it does)."""
+        radio = self.ctx.radio
+        if radio is not None and not radio.in_contact(self.name):
+            yield from self.regain_contact()
+            return
         spot = self.ctx.policy.standby(self.ctx, self.name)
         if spot is None:
             self.state = "idle"
             yield self.wait_for_wake()
             return
+        if self.battery is not None and not self.energy_for_trip(spot):
+            return  # to the charger first (`life`)
         if dist(self.pos, spot) > NEAR:
             self.state = "travelling"
             try:
@@ -105,6 +114,92 @@ class Robot(Bidder, Recovery):
         # standing by: look again now and then, in case the plan changed
         self.state = "idle"
         yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
+
+    # --- energy (engine/energy.py; only with the scenario's energy section on) -------------
+    def needs_charge(self) -> bool:
+        """A task was out of reach, or the next one I hold is: charge before going on."""
+        bat, energy = self.battery, self.ctx.energy
+        assert bat is not None and energy is not None
+        if not bat.must_charge and self.queue:
+            nxt = self.queue[0]
+            bat.must_charge = not energy.can_start(self, nxt.task_type, nxt.location)
+        return bat.must_charge
+
+    def recharge(self) -> Any:
+        """Drive to the nearest charger and fill the battery; bid again afterwards."""
+        bat, energy = self.battery, self.ctx.energy
+        assert bat is not None and energy is not None
+        charger = energy.nearest_charger(self.pos)
+        if dist(self.pos, charger) > NEAR:
+            self.state = "travelling"
+            try:
+                yield from self.go_to(charger)
+            except PlanningError:
+                if charger == energy.plant:
+                    raise
+                yield from self.go_to(energy.plant)
+        self.state = "charging"
+        t0 = float(self.env.now)
+        self.ctx.observer.emit("charge_started", robot=self.name, level_kj=bat.level_at(t0))
+        try:
+            yield self.env.timeout(energy.charge_s(bat))
+            bat.settle(float(self.env.now))
+            bat.level = bat.capacity
+            bat.must_charge = False
+            energy.charges += 1
+            self.state = "idle"
+            self.ctx.observer.emit("charged", robot=self.name)
+        finally:
+            bat.charging_s += float(self.env.now) - t0
+        self._bid_situation = ()
+        self.consider_bids()
+
+    def energy_for_trip(self, goal: tuple[float, float]) -> bool:
+        """Energy to drive there and on to a charger? If not, I charge first."""
+        bat, energy = self.battery, self.ctx.energy
+        assert bat is not None and energy is not None
+        length = dist(self.pos, goal) * energy.cfg.detour
+        if energy.can_drive(self, length, goal) or bat.level_at(self.env.now) >= bat.capacity:
+            return True
+        bat.must_charge = True
+        return False
+
+    def energy_allows(self, task_type: str, where: tuple[float, float]) -> bool:
+        """Could I do this task and still reach a charger? If not, I go to charge."""
+        energy = self.ctx.energy
+        if energy is None or energy.feasible(self, task_type, where):
+            return True
+        bat = self.battery
+        assert bat is not None
+        if not bat.must_charge and bat.level_at(float(self.env.now)) < bat.capacity:
+            bat.must_charge = True  # (full and still out of reach: charging would not help)
+            self.wake()
+        return False
+
+    def run_dry(self) -> None:
+        """The battery is empty: the robot stops where it is, a failure like any other."""
+        obs = self.ctx.observer
+        obs.failures += 1
+        self.fail()
+        obs.emit("robot_failed", robot=self.name, x=self.pos[0], y=self.pos[1], cause="energy")
+
+    def regain_contact(self) -> Any:
+        """Radio range: an idle robot out of the base station's reach drives back into it,
+        where auctions can reach it (and its own be heard)."""
+        radio = self.ctx.radio
+        assert radio is not None
+        spot = radio.contact_point(self.pos)
+        if self.battery is not None and not self.energy_for_trip(spot):
+            if self.rtype != "scout":
+                return  # to the charger first (`life`): it is in reach anyway
+            yield from self.recharge()
+            return
+        self.state = "travelling"
+        try:
+            yield from self.go_to(spot)
+        except PlanningError:
+            self.state = "idle"
+            yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
 
     def on_revoked(self) -> None:
         """Hook: tidy up after the current task was revoked mid-way."""
@@ -321,6 +416,10 @@ class Robot(Bidder, Recovery):
         self.alive = True
         self.enabled = True
         self.leaving = False
+        if self.battery is not None:  # the operator's rescue brings it back charged
+            self.battery.settle(float(self.env.now))
+            self.battery.level = self.battery.capacity
+            self.battery.must_charge = False
         self.state = "idle"
         self.current = None
         self.queue.clear()

@@ -9,7 +9,7 @@ from typing import Any
 
 import simpy
 
-from engine.bidding import BidMemory, refused_all
+from engine.bidding import BidMemory, Bids, refused_all
 from engine.geometry import Point, path_length
 from engine.messages import Ack, Award, Bid
 from engine.planning import PlanningError
@@ -25,7 +25,12 @@ class Bidder(RobotCore):
             return
         info = self.open_auctions.get(msg.auction_id)
         bid = self.my_bids.get(msg.auction_id)
-        if info is None or bid is None or not self.can_take():
+        if (
+            info is None
+            or bid is None
+            or not self.can_take()
+            or not self.energy_allows(info.task_type, info.location)
+        ):
             self._answer(msg.auction_id, msg.auctioneer, msg.location, False)
             return
         award = PendingAward(info, bid[1])
@@ -92,7 +97,11 @@ class Bidder(RobotCore):
     def has_room(self) -> bool:
         """Free to win one more task: nothing reserved and no more held than the policy lets
         a robot queue (under Policies 1–3, exactly `not busy()`)."""
-        return self.reserved is None and self.held() <= self.ctx.policy.queue_limit(self.rtype)
+        return (
+            self.reserved is None
+            and self.held() <= self.ctx.policy.queue_limit(self.rtype)
+            and (self.battery is None or not self.battery.must_charge)
+        )
 
     def paired(self) -> bool:
         """Paired with a live partner under a coalition policy (Policy 2)."""
@@ -137,7 +146,10 @@ class Bidder(RobotCore):
             every_round=every_round,
         )
         self._bid_situation = situation
-        for a, rnd, utility in policy.bids(self, targets, mem):
+        bids = policy.bids(self, targets, mem)
+        if self.battery is not None:
+            bids = self._within_reach(bids)
+        for a, rnd, utility in bids:
             self._bid(a, rnd, utility)
 
     def _refused_all(self) -> bool:
@@ -147,6 +159,19 @@ class Bidder(RobotCore):
             sent = self.my_bids
             self._refused = refused_all(sent, self.auctions_in_order())
         return self._refused
+
+    def _within_reach(self, bids: Bids) -> Bids:
+        """Energy: a task I could not finish and still reach a charger gets -inf, and then I
+        go to charge (so does every other bid of this look: I am busy charging)."""
+        if all(
+            not math.isfinite(u) or self.energy_allows(a.task_type, a.location) for a, _, u in bids
+        ):
+            return bids
+        return [(a, rnd, -math.inf) for a, rnd, _ in bids]
+
+    def energy_allows(self, task_type: str, where: Point) -> bool:
+        """Could I do this task and still reach a charger (`Robot`)?"""
+        raise NotImplementedError
 
     def eta_to(self, a: OpenAuction) -> float:
         """Seconds until this robot could stand at the task: finish what it holds, then drive."""

@@ -23,6 +23,7 @@ from engine.policies import OpenAuction, PendingAward, coalition_partner
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
+    from engine.energy import Battery
 
 DONE_MEMORY = 8
 """How many finished task ids a heartbeat repeats, for auctioneers that missed a TaskDone."""
@@ -96,6 +97,9 @@ class RobotCore:
         self.rejoining = False
         self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
         self._reset_knowledge()
+        self.battery: Battery | None = (
+            None if ctx.energy is None else ctx.energy.battery(self.rtype)
+        )
         ctx.liveness.add(name)
         ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears)
 
@@ -124,6 +128,14 @@ class RobotCore:
         spent = self.time_in_state.get(self._state, 0.0)
         self.time_in_state[self._state] = spent + (now - self._state_since)
         self._state, self._state_since = value, now
+        if self.battery is not None:
+            self.energy_changed()
+
+    def energy_changed(self) -> None:
+        """The draw on the battery may have changed (state or motion): settle and re-watch."""
+        energy = self.ctx.energy
+        assert energy is not None
+        energy.update(self)
 
     def state_times(self) -> dict[str, float]:
         """Seconds spent in each state since the robot joined, the current spell up to now
@@ -174,11 +186,24 @@ class RobotCore:
         if length <= 0.0:
             self.pos = path[-1]
             return
-        self.motion = Motion(float(self.env.now), path, length, self.speed)
+        speed = self.leg_speed()
+        self.motion = Motion(float(self.env.now), path, length, speed)
+        if self.battery is not None:
+            self.energy_changed()
         if report:
             self.heartbeat()
-        yield self.env.timeout(length / self.speed)
+        yield self.env.timeout(length / speed)
         self._end_motion(length)
+
+    def leg_speed(self) -> float:
+        """This leg's speed: the nominal one, or a seeded draw under uncertain work."""
+        d = self.ctx.durations
+        return self.speed if d is None else d.leg_speed(self.speed)
+
+    def work_s(self, mean: float) -> float:
+        """How long a piece of work (dig, transfer, unload) of this mean duration takes."""
+        d = self.ctx.durations
+        return mean if d is None else d.work(mean)
 
     def _end_motion(self, travelled: float | None = None) -> None:
         m = self.motion
@@ -189,6 +214,8 @@ class RobotCore:
         self.pos, self.heading = point_along(m.path, travelled)
         self.distance += travelled
         self.motion = None
+        if self.battery is not None:
+            self.energy_changed()
 
     def go_to(self, goal: Point) -> Any:
         yield from self.drive(self.ctx.planner.plan(self.pos, goal))
@@ -290,6 +317,10 @@ class RobotCore:
 
     def heartbeat(self) -> None:
         """Say I am alive and what I hold (the recovery role)."""
+        raise NotImplementedError
+
+    def run_dry(self) -> None:
+        """The battery is empty: stop where I am, like a failure (`Robot`)."""
         raise NotImplementedError
 
 

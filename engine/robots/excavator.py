@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import math
 from typing import TYPE_CHECKING, Any, cast
 
 import simpy
@@ -53,6 +55,8 @@ class Excavator(Robot):
         self.ahead: list[str] = []
         self.early: dict[str, Hauler] = {}  # haulers that came for one of them and stand by
         self._transport_serial = 0
+        self.transfer_now_s = self.ctx.scenario.timing.transfer_s  # the transfer under way
+        self._back_at = -math.inf  # radio range: when I last came back from reporting in
 
     def load(self) -> int:
         return self.bucket
@@ -76,7 +80,7 @@ class Excavator(Robot):
             return
         site.worker = site.last_worker = self.name
         try:
-            while site.remaining > 0 and not self.leaving:
+            while site.remaining > 0 and not self.leaving and self.energy_for_a_bucket(site):
                 self.state = "digging"
                 yield from self.dig(site)
                 site.remaining -= 1
@@ -97,6 +101,16 @@ class Excavator(Robot):
             self._drop_ahead()
         self.finish(a, "done" if site.remaining == 0 else "released")
 
+    def energy_for_a_bucket(self, site: SiteState) -> bool:
+        """Energy: enough for one more dig and transfer and the drive to a charger? If not,
+        the site is released (offered again) and I go to charge."""
+        energy = self.ctx.energy
+        if energy is None or energy.can_dig_one_more(self, (site.x, site.y)):
+            return True
+        assert self.battery is not None
+        self.battery.must_charge = True
+        return False
+
     def dig(self, site: SiteState) -> Any:
         """Dig one bucket. Under a policy with a transport lead L, the transport of every mineral
         of the pile is auctioned L seconds before its bucket is expected to fill (one dig plus
@@ -105,8 +119,9 @@ class Excavator(Robot):
         dig_s = cfg.timing.dig_s
         haul_s = dist((site.x, site.y), self.ctx.world.plant) / cfg.speeds.hauler
         lead = self.ctx.policy.transport_lead_s(haul_s, dig_s)
+        took = self.work_s(dig_s)  # the lead is planned on the mean dig; this one may differ
         if lead <= 0.0:
-            yield self.env.timeout(dig_s)
+            yield self.env.timeout(took)
             return
         now, later = transports_due(
             site.remaining, len(self.ahead), dig_s, cfg.timing.transfer_s, lead
@@ -114,11 +129,12 @@ class Excavator(Robot):
         for _ in range(now):
             self._auction_ahead(site)
         if later is None:
-            yield self.env.timeout(dig_s)
+            yield self.env.timeout(took)
         else:
-            yield self.env.timeout(later)
+            first = min(later, took)
+            yield self.env.timeout(first)
             self._auction_ahead(site)
-            yield self.env.timeout(dig_s - later)
+            yield self.env.timeout(took - first)
 
     def _transport_id(self, kind: str) -> str:
         """A task id never used before: `t` for a transport auctioned ahead, `r` for one
@@ -180,10 +196,59 @@ class Excavator(Robot):
                     self.ahead.remove(task_id)
                 self.waiting_for = None
                 continue
+            if self.ctx.radio is not None and self.unheard(self.ahead[0]):
+                yield from self.report_in(site, self.ahead[0])
+                continue
             self._arrival = arrival = self.env.event()
             self.state = "waiting"
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             self._arrival = None
+
+    # --- radio range: a transport nobody hears ------------------------------------------
+    def unheard(self, task_id: str) -> bool:
+        """Is this transport's auction open, unwon, for longer than two retry intervals,
+        while I am out of the base station's reach (so, likely, of every idle hauler)?"""
+        radio = self.ctx.radio
+        assert radio is not None
+        if task_id in self.house.allocations or radio.in_contact(self.name):
+            return False
+        proto = self.ctx.scenario.protocol
+        now = float(self.env.now)
+        if now - self._back_at <= 2 * proto.retry_s:
+            return False  # just back from reporting in: a hauler may be on its way
+        return any(
+            r.task_id == task_id and now - r.opened_at > 2 * proto.retry_s
+            for r in self.house.open_auctions.values()
+        )
+
+    def report_in(self, site: SiteState, task_id: str) -> Any:
+        """Drive into the base's reach with the full bucket until a hauler wins the
+        transport (or a few retry intervals pass), then back to the site: the winner waits
+        for me there."""
+        radio = self.ctx.radio
+        assert radio is not None
+        self.ctx.observer.emit("reporting_in", robot=self.name, task_id=task_id)
+        spot, back = radio.contact_point(self.pos), (site.x, site.y)
+        energy = self.ctx.energy
+        if energy is not None:
+            there_and_back = (dist(self.pos, spot) + dist(spot, back)) * energy.cfg.detour
+            if not energy.can_drive(self, there_and_back, back):
+                yield from self.recharge()  # bucket and all; then report in from the charger
+        self.state = "travelling"
+        with contextlib.suppress(PlanningError):
+            yield from self.go_to(spot)
+        proto = self.ctx.scenario.protocol
+        until = float(self.env.now) + 3 * proto.retry_s
+        self.state = "reporting"  # (not "waiting": a partner must not take this for a site)
+        while (
+            task_id not in self.house.allocations
+            and self._transport_open(task_id)
+            and self.env.now < until
+        ):
+            yield self.env.timeout(proto.bid_window_s)
+        self.state = "travelling"
+        yield from self.go_to(back)
+        self._back_at = float(self.env.now)
 
     def _drop_ahead(self) -> None:
         """Leaving the pile: transports not yet won are withdrawn (the won ones end void)."""
@@ -218,6 +283,9 @@ class Excavator(Robot):
                     task_id = self.waiting_for = self._transport_id("r")
                 self.house.open("transport", (site.x, site.y), task_id, kind="excavator_hauler")
                 offered = True
+            if self.ctx.radio is not None and self.unheard(task_id):
+                yield from self.report_in(site, task_id)
+                continue
             self._arrival = arrival = self.env.event()
             self.state = "waiting"
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
@@ -238,8 +306,9 @@ class Excavator(Robot):
 
     def transfer(self, hauler: Hauler, site: SiteState) -> Any:
         self.state = "loading"
+        self.transfer_now_s = self.work_s(self.ctx.scenario.timing.transfer_s)
         hauler.loading_from = self
-        yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
+        yield self.env.timeout(self.transfer_now_s)
         hauler.loading_from = None
         if not hauler.can_receive(self):
             return  # it failed or left while we worked: the mineral is still in the bucket

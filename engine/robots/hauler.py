@@ -41,6 +41,10 @@ class Hauler(Robot):
 
     def when_free(self) -> Any:
         if self.following():
+            site = self.partner_site
+            assert site is not None
+            if not self.energy_allows("transport", site):
+                return  # to the charger first (`Robot.life`)
             yield from self.follow_partner()
         else:
             yield from super().when_free()
@@ -50,7 +54,8 @@ class Hauler(Robot):
         self.state = "travelling"
         yield from self.go_to(a.location)
         exc = self._excavator_here(lambda e: e.expects(a.task_id))
-        if exc is None and self.ctx.policy.early_transports():
+        if exc is None and (self.ctx.policy.early_transports() or self.ctx.radio is not None):
+            # (radio range: the excavator may have driven into reach to offer this transport)
             exc = yield from self.wait_for_excavator(a)
         if exc is not None and exc.hauler_arrived(self, a.task_id):
             yield from self.wait_loaded(exc, a.task_id)
@@ -140,7 +145,7 @@ class Hauler(Robot):
         if dist(p, (g.x, g.y)) > NEAR:
             yield from self.go_to((g.x, g.y))
         self.state = "loading"
-        yield self.env.timeout(self.ctx.scenario.timing.transfer_s)
+        yield self.env.timeout(self.work_s(self.ctx.scenario.timing.transfer_s))
         if g in self.ctx.field.ground:
             self.bin = 1
             self.ctx.field.pick_ground(g, self.name)
@@ -148,8 +153,13 @@ class Hauler(Robot):
     def deliver(self) -> Any:
         self.state = "carrying"
         yield from self.drive(self.ctx.planner.plan(self.pos, self.ctx.world.plant), report=True)
-        self.state = "unloading"
-        yield self.env.timeout(self.ctx.scenario.timing.unload_s)
+        unload_s = self.work_s(self.ctx.scenario.timing.unload_s)
+        docks = self.ctx.docks
+        if docks is None:
+            self.state = "unloading"
+            yield self.env.timeout(unload_s)
+        else:
+            yield from docks.unload(self, unload_s)
         self.bin = 0
         self.ctx.field.note_delivery(self.name)
 
@@ -177,6 +187,8 @@ class Hauler(Robot):
             t += timing.unload_s
         for a in self.queue:
             t += 2 * dist(plant, a.location) / v + timing.transfer_s + timing.unload_s
+        if self.ctx.docks is not None:  # the queue it can see at the plant now
+            t += self.ctx.docks.expected_wait_s(timing.unload_s)
         return t, plant
 
     # --- Policy 2: follow the partner excavator ------------------------------------------
@@ -194,6 +206,9 @@ class Hauler(Robot):
             if working is not None and dist(working, site) > NEAR:
                 self.partner_site = working  # its heartbeat says it digs elsewhere: go there
                 return
+            if self.ctx.radio is not None and self._partner_left_site():
+                self.partner_site = None  # (a TaskDone out of reach: its heartbeat tells)
+                return
             # not there (yet, or any more): wait for news rather than spin
             self.state = "idle"
             yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
@@ -204,7 +219,7 @@ class Hauler(Robot):
         woken = self.wait_for_wake()
         yield self._loaded | woken
         if self.loading_from is not None:  # a transfer has begun: stay until it ends
-            yield self._loaded | self.env.timeout(self.ctx.scenario.timing.transfer_s)
+            yield self._loaded | self.env.timeout(self.loading_from.transfer_now_s)
         self._loaded = None
         exc.partner_left(self)
         if self.bin:
@@ -264,6 +279,14 @@ class Hauler(Robot):
         if working is not None:
             self.partner_site = working
             self.wake()
+
+    def _partner_left_site(self) -> bool:
+        """My partner's latest heartbeat shows it holds no site any more (radio range: the
+        TaskDone that said so did not reach me)."""
+        if self.partner is None:
+            return False
+        hb = self.ctx.liveness.last_heartbeat(self.name, self.partner)
+        return hb is not None and not any(t.startswith("excavate@") for t in hb.tasks)
 
     def _partner_works_at(self) -> Point | None:
         """Where my partner stands digging, by its last heartbeat (None: it does not, or it is

@@ -55,8 +55,11 @@ class Recovery(RobotCore):
         if back:  # its auctions count again, and a partner may be back: look again
             self.wake()
             self.consider_bids()
+        radio = self.ctx.radio
         for peer in board.silent(self.name, now, proto.failure_timeout_s):
             if peer not in self.down and peer not in self._probing:
+                if radio is not None and radio.presumed_out_of_reach(self, peer, now):
+                    continue  # out of range is not failed: it gets radio.silent_timeout_s
                 self._probing.add(peer)
                 self._spawn(self._probe(peer))
         # an auction whose auctioneer no longer lists it has closed (we missed the Close)

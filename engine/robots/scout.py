@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from engine.geometry import Point, dist, first_entry
+from engine.geometry import Point, dist, first_entry, path_length
 from engine.messages import Handoff, Hello, Takeover
 from engine.planning import Path, PlanningError
 from engine.policies import OpenAuction
@@ -70,12 +70,25 @@ class Scout(Robot):
                     except PlanningError:
                         self.ctx.observer.emit("unreachable", robot=self.name, cell=cell)
                     else:
+                        if self.battery is not None and not self._energy_for(path):
+                            yield from self.recharge()
+                            continue  # then this cell again, from the charger
                         yield from self.sweep_to(path)
                         self.ctx.field.mark_scanned(cell)
                 self.cursor += 1
+            elif self.ctx.radio is not None and not self.ctx.radio.in_contact(self.name):
+                yield from self.regain_contact()  # its search is done: back within reach
             else:
                 self.state = "idle"
                 yield self.wait_for_wake()
+
+    def _energy_for(self, path: Path) -> bool:
+        """Enough to scan along this path and reach a charger from its end?"""
+        energy, bat = self.ctx.energy, self.battery
+        assert energy is not None and bat is not None
+        if bat.level_at(float(self.env.now)) >= bat.capacity:
+            return True  # full: charging cannot help (validation keeps this from happening)
+        return energy.can_drive(self, path_length(path), path[-1], bat.spec.work_kw)
 
     def sweep_to(self, path: Path) -> Any:
         """Drive a path, noticing every site that comes within the scan radius on the way."""
@@ -94,15 +107,18 @@ class Scout(Robot):
         if not hits:
             yield from self.drive(path)
             return
-        self.motion = Motion(float(self.env.now), path, along, self.speed)
+        speed = self.leg_speed()
+        self.motion = Motion(float(self.env.now), path, along, speed)
+        if self.battery is not None:
+            self.energy_changed()
         t0, done = float(self.env.now), 0.0
         for d, _, site in hits:
             if d > done:
-                yield self.env.timeout(t0 + d / self.speed - float(self.env.now))
+                yield self.env.timeout(t0 + d / speed - float(self.env.now))
                 done = d
             self.detect(site)
         if along > done:
-            yield self.env.timeout(t0 + along / self.speed - float(self.env.now))
+            yield self.env.timeout(t0 + along / speed - float(self.env.now))
         self._end_motion(along)
 
     def detect(self, site: SiteState) -> None:

@@ -1,4 +1,4 @@
-// The robot list: name, type, state, task, load, distance, with Disable / Fail / Enable.
+// The robot list: name, type, state, task, load, charge, distance, with Disable / Fail / Enable.
 // Rows are updated in place so keyboard focus survives the 10 Hz frames. Past VIRTUAL_FROM
 // robots the list is virtualized (virtual.js): only the rows in view are in the DOM.
 
@@ -105,7 +105,7 @@ export class RobotTable {
       this.virtual = new VirtualRows({
         scroller: table.parentElement,
         body: this.tbody,
-        spacer: (px) => h("tr", { class: "spacer", style: `height:${px}px` }, h("td", { colspan: "6" })),
+        spacer: (px) => h("tr", { class: "spacer", style: `height:${px}px` }, h("td", { colspan: "7" })),
         rowHeight: ROW_PX,
         offset: () => this.headPx,
         render: (i) => {
@@ -139,6 +139,7 @@ export class RobotTable {
       state: h("td", {}, h("span", { class: "state" })),
       task: h("td", { class: "task" }),
       load: h("td", { class: "num" }),
+      charge: h("td", { class: "num charge" }),
       dist: h("td", { class: "num" }),
     };
     const mk = (action, text, title) =>
@@ -148,7 +149,7 @@ export class RobotTable {
       fail: mk("fail", "Fail", "Fail abruptly (stops where it is)"),
       enable: mk("enable", "Enable", "Enable again"),
     };
-    const tr = h("tr", { dataset: { robot: r.name, type } }, cells.name, cells.state, cells.task, cells.load, cells.dist, h("td", { class: "acts" }, buttons.disable, buttons.fail, buttons.enable));
+    const tr = h("tr", { dataset: { robot: r.name, type } }, cells.name, cells.state, cells.task, cells.load, cells.charge, cells.dist, h("td", { class: "acts" }, buttons.disable, buttons.fail, buttons.enable));
     return { tr, cells, buttons, type, state: null };
   }
 
@@ -170,6 +171,9 @@ export class RobotTable {
     setText(row.cells.task, shortTask(r.task));
     row.cells.task.title = r.task || "";
     setText(row.cells.load, r.load ?? "");
+    // battery charge (scenarios with energy on; docs/model.md#energy)
+    setText(row.cells.charge, r.charge === undefined || r.charge === null ? "" : `${Math.round(r.charge * 100)}%`);
+    row.tr.dataset.charge = r.charge ?? "";
     setText(row.cells.dist, r.distance === undefined ? "" : fmt(r.distance, 0));
     row.tr.dataset.distance = r.distance ?? ""; // exact, for tests (the cell is rounded)
     row.tr.dataset.task = r.task ?? "";

@@ -88,3 +88,22 @@ def test_operators_only(server: LiveServer) -> None:
     with server.client(token=False) as anon:
         assert anon.post("/api/scenarios/parse", json={"text": SMALL}).status_code == 401
         assert anon.get("/api/scenarios/reference").status_code == 200
+
+
+def test_the_realism_options_parse_and_a_bad_one_is_422_naming_it(api: httpx.Client) -> None:
+    """docs/model.md: the committed lunar-realistic scenario parses with its four sections on;
+    a mission of it shows each robot's charge; a bad option value names its field."""
+    text = (Path(__file__).resolve().parents[2] / "scenarios" / "lunar-realistic.toml").read_text()
+    res = api.post("/api/scenarios/parse", json={"text": text})
+    assert res.status_code == 200, res.text
+    scenario = res.json()
+    for section in ("energy", "docks", "uncertainty", "radio"):
+        assert scenario[section]["enabled"] is True
+    assert "energy" not in api.get("/api/scenarios/reference").json()  # off: left out
+    mid = api.post("/api/missions", json={"policy": 4, "paused": True, "scenario": scenario})
+    assert mid.status_code == 201, mid.text
+    robots = api.get(f"/api/missions/{mid.json()['id']}/robots").json()
+    assert robots and all(r["charge"] == 1.0 for r in robots)
+    bad = api.post("/api/scenarios/parse", json={"text": "[docks]\nenabled = true\ncount = 0\n"})
+    assert bad.status_code == 422
+    assert "docks.count" in bad.text

@@ -135,3 +135,23 @@ def test_the_offline_reference_runs_from_the_command_line():
     m = json.loads(out.stdout)
     assert m["policy"] == "offline" and m["completed"] and m["minerals_delivered"] == 64
     assert m["lower_bound_s"] <= m["makespan_s"]
+
+
+def test_the_realism_options_reach_the_summary_and_their_errors_name_the_field(tmp_path: Path):
+    """docs/model.md: a scenario with the options on prints their figures; a bad option value
+    is one line naming the field, exit 2."""
+    scen = tmp_path / "small-real.toml"
+    scen.write_text(
+        "width = 40.0\nheight = 40.0\nsites = 2\nminerals = 4\nrandom_craters = 0\n"
+        "[team]\nscouts = 1\nexcavators = 1\nhaulers = 2\n"
+        "[docks]\nenabled = true\n[energy]\nenabled = true\n"
+        "[radio]\nenabled = true\nrange_m = 15.0\nbase_range_m = 20.0\n"
+    )
+    out = CliRunner().invoke(cli, ["run", "--policy", "1", "--seed", "0", "--scenario", str(scen)])
+    assert out.exit_code == 0, out.output
+    for line in ("energy (kJ)", "charging (s)", "dock queue", "radio           reach"):
+        assert line in out.output
+    scen.write_text("[radio]\nenabled = true\nhops = 0\n")
+    out = CliRunner().invoke(cli, ["run", "--policy", "1", "--seed", "0", "--scenario", str(scen)])
+    assert out.exit_code == 2
+    assert "radio.hops" in out.output and len(out.output.strip().splitlines()) == 1
