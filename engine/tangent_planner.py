@@ -25,9 +25,12 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree  # type: ignore[import-untyped]
 
 from engine.geometry import Point, dist, segment_point_distance
 from engine.planning import Path, PlanningError, ShortcutPlanner
+from engine.segment_grid import SegmentGrid, grid_step
 from engine.world import CLEARANCE, World
 
 ARC_STEP = math.radians(5.0)
@@ -61,6 +64,7 @@ class _Arc(NamedTuple):
         return tuple(reversed(poly)) if self.reverse else poly
 
 
+XYR = tuple[float, float, float]
 Leg = Path | _Arc
 Edge = tuple[int, float, Leg]  # (to node, cost, the leg driven from the edge's start)
 
@@ -82,16 +86,10 @@ class TangentGraph:
         self.points: list[Point] = []
         self.adj: list[list[Edge]] = []
         self.rings: list[list[tuple[float, int]]] = [[] for _ in self.rims]  # (angle, node)
-        # the craters an arc driven around each rim could touch: only these are checked
-        self._near_rim = [
-            [
-                (c.x, c.y, c.r + clearance)
-                for k, c in enumerate(world.craters)
-                if k != i
-                and math.hypot(c.x - rim.x, c.y - rim.y) < c.r + clearance + rim.r / _COS_HALF
-            ]
-            for i, rim in enumerate(self.rims)
-        ]
+        self._grid = SegmentGrid(
+            self._craters_xyr, grid_step(self._craters_xyr, world.width, world.height)
+        )
+        self._near_rim = self._craters_near_rims(world, clearance)
         self._clear_rim = [  # no crater near, the whole ring in the area: every arc is free
             not self._near_rim[i]
             and all(
@@ -100,15 +98,38 @@ class TangentGraph:
             )
             for i, rim in enumerate(self.rims)
         ]
-        for i in range(len(self.rims)):
-            for j in range(i + 1, len(self.rims)):
-                for p, q in _bitangents(self.rims[i], self.rims[j]):
-                    if self._free_segment(p, q):
-                        a, b = self._add_node(i, p), self._add_node(j, q)
-                        self._link(self.adj, a, b, (p, q), dist(p, q))
+        pairs, p, q = _all_bitangents(self._rim_xyr)
+        free = self._in_area_all(p) & self._in_area_all(q)
+        free[free] = self._grid.free(p[free, 0], p[free, 1], q[free, 0], q[free, 1])
+        for k in np.flatnonzero(free):
+            i, j = int(pairs[k, 0]), int(pairs[k, 1])
+            pk, qk = (float(p[k, 0]), float(p[k, 1])), (float(q[k, 0]), float(q[k, 1]))
+            a, b = self._add_node(i, pk), self._add_node(j, qk)
+            self._link(self.adj, a, b, (pk, qk), dist(pk, qk))
         for i, ring in enumerate(self.rings):
             ring.sort()
             self._link_ring(self.adj, i, ring, lambda a, b: True)
+
+    def _craters_near_rims(self, world: World, clearance: float) -> list[list[XYR]]:
+        """Per rim, the craters an arc driven around it could touch (a k-d tree finds the
+        candidate pairs; only these are checked when an arc is linked)."""
+        out: list[list[XYR]] = [[] for _ in self.rims]
+        if len(self.rims) < 2:
+            return out
+        reach = float(self._craters_xyr[:, 2].max() + self._rim_xyr[:, 2].max() / _COS_HALF)
+        tree = cKDTree(self._rim_xyr[:, :2])
+        for i, k in sorted(tree.query_pairs(reach, output_type="ndarray").tolist()):
+            for rim, other in ((i, k), (k, i)):
+                c, own = world.craters[other], self.rims[rim]
+                if math.hypot(c.x - own.x, c.y - own.y) < c.r + clearance + own.r / _COS_HALF:
+                    out[rim].append((c.x, c.y, c.r + clearance))
+        for near in out:
+            near.sort()
+        return out
+
+    def _in_area_all(self, p: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+        w, h = self._world.width, self._world.height
+        return (p[:, 0] >= 0.0) & (p[:, 0] <= w) & (p[:, 1] >= 0.0) & (p[:, 1] <= h)
 
     def _add_node(self, rim: int, p: Point) -> int:
         node = len(self.points)
@@ -129,7 +150,11 @@ class TangentGraph:
         leg: Leg,
         cost: float,
     ) -> None:
-        back: Leg = leg._replace(reverse=True) if isinstance(leg, _Arc) else (leg[1], leg[0])
+        back: Leg = (
+            _Arc(leg.rim, leg.p, leg.q, leg.a0, leg.sweep, True)
+            if isinstance(leg, _Arc)
+            else (leg[1], leg[0])
+        )
         (adj[a] if isinstance(adj, list) else adj.setdefault(a, [])).append((b, cost, leg))
         (adj[b] if isinstance(adj, list) else adj.setdefault(b, [])).append((a, cost, back))
 
@@ -168,7 +193,7 @@ class TangentGraph:
 
     def _free_tangents(self, p: Point) -> list[tuple[int, Point]]:
         """The tangent points p sees on every rim, with their rim: the segments from p are
-        tested against every crater at once (numpy), the per-query hot spot."""
+        tested all at once on the crater grid (numpy), the per-query hot spot."""
         rims = self._rim_xyr
         dx, dy = p[0] - rims[:, 0], p[1] - rims[:, 1]
         d = np.hypot(dx, dy)
@@ -181,16 +206,9 @@ class TangentGraph:
         ty = rims[rim_of, 1] + rims[rim_of, 2] * np.sin(ang)
         keep = np.concatenate([outside, outside])
         keep &= (tx >= 0.0) & (tx <= self._world.width) & (ty >= 0.0) & (ty <= self._world.height)
-        # distance from every crater centre (columns) to every segment p → t (rows)
-        sx, sy = tx - p[0], ty - p[1]
-        seg2 = np.maximum(sx * sx + sy * sy, 1e-300)
-        cx, cy, cr = self._craters_xyr[:, 0], self._craters_xyr[:, 1], self._craters_xyr[:, 2]
-        u = ((cx[None, :] - p[0]) * sx[:, None] + (cy[None, :] - p[1]) * sy[:, None]) / seg2[
-            :, None
-        ]
-        u = np.clip(u, 0.0, 1.0)
-        gap = np.hypot(p[0] + u * sx[:, None] - cx[None, :], p[1] + u * sy[:, None] - cy[None, :])
-        keep &= (gap > cr[None, :]).all(axis=1)
+        keep[keep] = self._grid.free(
+            np.full(int(keep.sum()), p[0]), np.full(int(keep.sum()), p[1]), tx[keep], ty[keep]
+        )
         return [(int(rim_of[k]), (float(tx[k]), float(ty[k]))) for k in np.flatnonzero(keep)]
 
     def _link_temps(
@@ -214,9 +232,6 @@ class TangentGraph:
 
     def _in_area(self, p: Point) -> bool:
         return 0.0 <= p[0] <= self._world.width and 0.0 <= p[1] <= self._world.height
-
-    def _free_segment(self, p: Point, q: Point) -> bool:
-        return self._in_area(p) and self._in_area(q) and self._index.segment_free(p, q)
 
     def shortest(self, start: Point, goal: Point) -> Path:
         """The shortest collision-free path from start to goal (A* over the tangent graph).
@@ -286,25 +301,36 @@ def _astar(
     return None
 
 
-def _bitangents(c1: _Rim, c2: _Rim) -> list[tuple[Point, Point]]:
-    """The segments tangent to both discs: two outer always, two inner if they are apart."""
-    dx, dy = c2.x - c1.x, c2.y - c1.y
-    d = math.hypot(dx, dy)
-    if d <= abs(c1.r - c2.r):
-        return []
+def _all_bitangents(
+    xyr: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Every segment tangent to two discs: per pair i < j (in order), two outer always and two
+    inner if the discs are apart. Returns each segment's (i, j) and its ends on i and on j."""
+    i, j = np.triu_indices(len(xyr), k=1)
+    x1, y1, r1 = xyr[i, 0], xyr[i, 1], xyr[i, 2]
+    dx, dy = xyr[j, 0] - x1, xyr[j, 1] - y1
+    d = np.hypot(dx, dy)
+    apart = d > np.abs(r1 - xyr[j, 2])
+    d = np.where(apart, d, 1.0)
     vx, vy = dx / d, dy / d
-    out: list[tuple[Point, Point]] = []
-    for r2 in (c2.r, -c2.r):  # outer, then inner
-        c = (c1.r - r2) / d
-        if c * c > 1.0:
-            continue
-        h = math.sqrt(max(0.0, 1.0 - c * c))
+    pairs, ps, qs, oks = [], [], [], []
+    for r2 in (xyr[j, 2], -xyr[j, 2]):  # outer, then inner
+        c = (r1 - r2) / d
+        ok = apart & (c * c <= 1.0)
+        h = np.sqrt(np.maximum(0.0, 1.0 - c * c))
         for sign in (1.0, -1.0):
             nx, ny = vx * c - sign * h * vy, vy * c + sign * h * vx
-            p = (c1.x + c1.r * nx, c1.y + c1.r * ny)
-            q = (c2.x + r2 * nx, c2.y + r2 * ny)
-            out.append((p, q))
-    return out
+            ps.append(np.stack([x1 + r1 * nx, y1 + r1 * ny], axis=1))
+            qs.append(np.stack([xyr[j, 0] + r2 * nx, xyr[j, 1] + r2 * ny], axis=1))
+            oks.append(ok)
+            pairs.append(np.stack([i, j], axis=1))
+    order = np.arange(4 * len(i)).reshape(4, -1).T.ravel()  # pair by pair, as listed above
+    keep = np.concatenate(oks)[order]
+    return (
+        np.concatenate(pairs)[order][keep],
+        np.concatenate(ps)[order][keep],
+        np.concatenate(qs)[order][keep],
+    )
 
 
 def _arc_length(r: float, sweep: float) -> float:
@@ -351,33 +377,3 @@ class TangentPlanner(ShortcutPlanner):
 
     def close(self) -> None:
         self._graph = None
-
-
-def dense_visibility_length(world: World, start: Point, goal: Point, per_rim: int = 72) -> float:
-    """An independent check of the tangent graph, for tests and the bench (slow: O(n²)).
-
-    Dijkstra over a dense visibility graph of points just outside every rim: every route it
-    finds is drivable, so its length bounds the shortest from above and converges to it as
-    `per_rim` grows. The tangent graph's route is never longer (but for its polygonal arcs).
-    """
-    pts = [start, goal]
-    for c in world.craters:
-        big = (c.r + CLEARANCE) * 1.0001 / math.cos(math.pi / per_rim) + 1e-6
-        for k in range(per_rim):
-            a = 2 * math.pi * k / per_rim
-            p = (c.x + big * math.cos(a), c.y + big * math.sin(a))
-            if world.is_free(*p):
-                pts.append(p)
-    best, heap = {0: 0.0}, [(0.0, 0)]
-    while heap:
-        g, u = heapq.heappop(heap)
-        if u == 1:
-            return g
-        if g > best.get(u, math.inf):
-            continue
-        for v, p in enumerate(pts):
-            ng = g + dist(pts[u], p)
-            if v != u and ng < best.get(v, math.inf) and world.index.segment_free(pts[u], p):
-                best[v] = ng
-                heapq.heappush(heap, (ng, v))
-    return math.inf
