@@ -101,13 +101,33 @@ class TangentGraph:
         pairs, p, q = _all_bitangents(self._rim_xyr)
         free = self._in_area_all(p) & self._in_area_all(q)
         free[free] = self._grid.free(p[free, 0], p[free, 1], q[free, 0], q[free, 1])
-        for k in np.flatnonzero(free):
-            i, j = int(pairs[k, 0]), int(pairs[k, 1])
-            pk, qk = (float(p[k, 0]), float(p[k, 1])), (float(q[k, 0]), float(q[k, 1]))
-            a, b = self._add_node(i, pk), self._add_node(j, qk)
-            self._link(self.adj, a, b, (pk, qk), dist(pk, qk))
-        for i, ring in enumerate(self.rings):
-            ring.sort()
+        self._add_tangents(pairs[free], p[free], q[free])
+
+    def _add_tangents(
+        self, pairs: npt.NDArray[np.int64], p: npt.NDArray[np.float64], q: npt.NDArray[np.float64]
+    ) -> None:
+        """The free bitangents as nodes 2k (on rim i) and 2k + 1 (on rim j), each pair joined by
+        its segment; then every rim's nodes in angular order, joined by their free arcs."""
+        ends = np.stack([p, q], axis=1).reshape(-1, 2)
+        self.points = [(x, y) for x, y in ends.tolist()]
+        length = np.hypot(q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]).tolist()
+        self.adj = []
+        for k, (a, b) in enumerate(zip(self.points[0::2], self.points[1::2], strict=True)):
+            self.adj.append([(2 * k + 1, length[k], (a, b))])
+            self.adj.append([(2 * k, length[k], (b, a))])
+        rim_of = pairs.reshape(-1)
+        angle = np.arctan2(
+            ends[:, 1] - self._rim_xyr[rim_of, 1], ends[:, 0] - self._rim_xyr[rim_of, 0]
+        )
+        node = np.arange(len(ends))
+        order = np.lexsort((node, angle, rim_of))
+        cuts = np.searchsorted(rim_of[order], np.arange(len(self.rims) + 1))
+        angles, nodes = angle[order].tolist(), node[order].tolist()
+        for i in range(len(self.rims)):
+            ring = list(
+                zip(angles[cuts[i] : cuts[i + 1]], nodes[cuts[i] : cuts[i + 1]], strict=True)
+            )
+            self.rings[i] = ring
             self._link_ring(self.adj, i, ring, lambda a, b: True)
 
     def _craters_near_rims(self, world: World, clearance: float) -> list[list[XYR]]:
