@@ -12,6 +12,7 @@ Exact, not approximate: every point of a segment is within step/2 of one of its 
 crater the segment comes within r of is within r + step/2 of a sample, and each crater is
 registered in every cell its disc of radius r + step/2 touches. The final test is the same as
 `CraterIndex.segment_free`'s: the distance from the crater's centre to the whole segment.
+When few segments are left (or were given), they are tested against every disc at once.
 """
 
 from __future__ import annotations
@@ -68,16 +69,18 @@ class SegmentGrid:
             out[lo:hi] = self._free(ax[lo:hi], ay[lo:hi], bx[lo:hi], by[lo:hi])
         return out
 
+    def _direct(self, ax: Floats, ay: Floats, dx: Floats, dy: Floats, safe2: Floats) -> Bools:
+        """Each segment against every disc at once."""
+        ex = self.discs[None, :, 0] - ax[:, None]
+        ey = self.discs[None, :, 1] - ay[:, None]
+        u = np.clip((ex * dx[:, None] + ey * dy[:, None]) / safe2[:, None], 0.0, 1.0)
+        gap = np.hypot(u * dx[:, None] - ex, u * dy[:, None] - ey)
+        return np.asarray((gap > self.discs[None, :, 2]).all(axis=1))
+
     def _free(self, ax: Floats, ay: Floats, bx: Floats, by: Floats) -> Bools:
         dx, dy = bx - ax, by - ay
         seg2 = dx * dx + dy * dy
         safe2 = np.where(seg2 > 0.0, seg2, 1.0)
-        if len(ax) * len(self.discs) <= _DIRECT:  # few: every disc at once beats the march
-            ex = self.discs[None, :, 0] - ax[:, None]
-            ey = self.discs[None, :, 1] - ay[:, None]
-            u = np.clip((ex * dx[:, None] + ey * dy[:, None]) / safe2[:, None], 0.0, 1.0)
-            gap = np.hypot(u * dx[:, None] - ex, u * dy[:, None] - ey)
-            return np.asarray((gap > self.discs[None, :, 2]).all(axis=1))
         free = np.ones(len(ax), dtype=bool)
         length = np.sqrt(seg2)
         samples = np.ceil(length / self.step).astype(np.int64)  # the last one is at b
@@ -86,19 +89,22 @@ class SegmentGrid:
         active = np.arange(len(ax))
         m = 0
         while active.size:
+            if active.size * len(self.discs) <= _DIRECT:  # few left: every disc at once
+                free[active] = self._direct(
+                    ax[active], ay[active], dx[active], dy[active], safe2[active]
+                )
+                break
             a_x, a_y, d_x, d_y = ax[active], ay[active], dx[active], dy[active]
             t = np.minimum(m * self.step * inv[active], 1.0)
-            col = np.clip(
-                ((a_x + t * d_x - self.x0) // self.step).astype(np.int64), 0, self.cols - 1
-            )
-            row = np.clip(
-                ((a_y + t * d_y - self.y0) // self.step).astype(np.int64), 0, self.rows - 1
-            )
+            col = ((a_x + t * d_x - self.x0) // self.step).astype(np.int64)
+            row = ((a_y + t * d_y - self.y0) // self.step).astype(np.int64)
+            col = np.minimum(np.maximum(col, 0), self.cols - 1)
+            row = np.minimum(np.maximum(row, 0), self.rows - 1)
             cand = self.table[row * self.cols + col]  # (segments, width)
             cx, cy, cr = disc_x[cand], disc_y[cand], disc_r[cand]
             ex, ey = cx - a_x[:, None], cy - a_y[:, None]
             u = (ex * d_x[:, None] + ey * d_y[:, None]) / safe2[active][:, None]
-            u = np.clip(u, 0.0, 1.0)
+            u = np.minimum(np.maximum(u, 0.0), 1.0)
             gap = np.hypot(u * d_x[:, None] - ex, u * d_y[:, None] - ey)
             blocked = (gap <= cr).any(axis=1)
             free[active[blocked]] = False

@@ -2,10 +2,17 @@
 
 Craters are static discs, so a shortest path between two free points is made of straight
 segments tangent to the (clearance-inflated) discs and arcs along their rims. The graph's
-nodes are the tangent points of every pair of discs (built once per world) plus, per query,
-the tangents from the start and the goal; its edges are the collision-free tangent segments
-and the free arcs between angularly neighbouring nodes on one rim. A* with the straight-line
-heuristic finds the shortest route.
+nodes are the tangent points of every pair of discs plus, per query, the tangents from the
+start and the goal; its edges are the collision-free tangent segments and the free arcs
+between angularly neighbouring nodes on one rim. A* with the straight-line heuristic finds the
+shortest route.
+
+The graph is built lazily, one rim at a time: a rim is opened (its bitangents tested, its
+ring of nodes and arcs made) when A* first leaves a node on it, and stays open for the
+world's later queries. A* only needs the edges of the nodes it leaves, so the route is the
+one the whole graph gives, but a query on a big world opens only the rims near its route
+(the whole graph has ~210,000 nodes at 600 craters). Segments are tested many at once on a
+crater grid (engine/segment_grid.py).
 
 Robots drive polylines, so an arc is driven as a polygon circumscribed about the rim (every
 edge tangent to it, so it never cuts into the crater) with a step of at most `ARC_STEP`
@@ -85,7 +92,9 @@ class TangentGraph:
         )
         self.points: list[Point] = []
         self.adj: list[list[Edge]] = []
-        self.rings: list[list[tuple[float, int]]] = [[] for _ in self.rims]  # (angle, node)
+        self.rim_of: list[int] = []
+        # (angle, node) per rim, None until the rim is opened (`ring`)
+        self.rings: list[list[tuple[float, int]] | None] = [None for _ in self.rims]
         self._grid = SegmentGrid(
             self._craters_xyr, grid_step(self._craters_xyr, world.width, world.height)
         )
@@ -98,37 +107,50 @@ class TangentGraph:
             )
             for i, rim in enumerate(self.rims)
         ]
-        pairs, p, q = _all_bitangents(self._rim_xyr)
-        free = self._in_area_all(p) & self._in_area_all(q)
-        free[free] = self._grid.free(p[free, 0], p[free, 1], q[free, 0], q[free, 1])
-        self._add_tangents(pairs[free], p[free], q[free])
+        self._pending: list[list[int]] = [[] for _ in self.rims]  # nodes on unopened rims
+        self.opened = 0
 
-    def _add_tangents(
-        self, pairs: npt.NDArray[np.int64], p: npt.NDArray[np.float64], q: npt.NDArray[np.float64]
-    ) -> None:
-        """The free bitangents as nodes 2k (on rim i) and 2k + 1 (on rim j), each pair joined by
-        its segment; then every rim's nodes in angular order, joined by their free arcs."""
-        ends = np.stack([p, q], axis=1).reshape(-1, 2)
-        self.points = [(x, y) for x, y in ends.tolist()]
-        length = np.hypot(q[:, 0] - p[:, 0], q[:, 1] - p[:, 1]).tolist()
-        self.adj = []
-        for k, (a, b) in enumerate(zip(self.points[0::2], self.points[1::2], strict=True)):
-            self.adj.append([(2 * k + 1, length[k], (a, b))])
-            self.adj.append([(2 * k, length[k], (b, a))])
-        rim_of = pairs.reshape(-1)
-        angle = np.arctan2(
-            ends[:, 1] - self._rim_xyr[rim_of, 1], ends[:, 0] - self._rim_xyr[rim_of, 0]
-        )
-        node = np.arange(len(ends))
-        order = np.lexsort((node, angle, rim_of))
-        cuts = np.searchsorted(rim_of[order], np.arange(len(self.rims) + 1))
-        angles, nodes = angle[order].tolist(), node[order].tolist()
-        for i in range(len(self.rims)):
-            ring = list(
-                zip(angles[cuts[i] : cuts[i + 1]], nodes[cuts[i] : cuts[i + 1]], strict=True)
+    def ring(self, i: int) -> list[tuple[float, int]]:
+        """Rim i's nodes in angular order, joined by their free arcs; built the first time a
+        route reaches the rim (A* looks at few rims, so a big world's graph is built only
+        where routes go).
+
+        Opening rim i tests its bitangents to every rim not opened yet (all at once on the
+        crater grid) and makes a node at each end of a free one; its bitangents to rims opened
+        before were tested then, and their nodes on i wait in `_pending[i]`."""
+        ring = self.rings[i]
+        if ring is not None:
+            return ring
+        self.opened += 1
+        closed = np.array([j for j, r in enumerate(self.rings) if r is None and j != i], dtype=int)
+        lo, hi = np.minimum(closed, i), np.maximum(closed, i)
+        p, q, ok = _bitangents(self._rim_xyr, lo, hi)
+        ok &= self._in_area_all(p) & self._in_area_all(q)
+        ok[ok] = self._grid.free(p[ok, 0], p[ok, 1], q[ok, 0], q[ok, 1])
+        mine = self._pending[i]
+        self._pending[i] = []
+        los, his = np.tile(lo, 4).tolist(), np.tile(hi, 4).tolist()
+        for k in np.flatnonzero(ok).tolist():
+            a, b = self._node(los[k], p[k]), self._node(his[k], q[k])
+            self._link(
+                self.adj,
+                a,
+                b,
+                (self.points[a], self.points[b]),
+                dist(self.points[a], self.points[b]),
             )
-            self.rings[i] = ring
-            self._link_ring(self.adj, i, ring, lambda a, b: True)
+            mine.append(a if los[k] == i else b)
+            self._pending[his[k] if los[k] == i else los[k]].append(b if los[k] == i else a)
+        ring = sorted((self._angle(i, self.points[n]), n) for n in mine)
+        self.rings[i] = ring
+        self._link_ring(self.adj, i, ring, lambda a, b: True)
+        return ring
+
+    def _node(self, rim: int, p: npt.NDArray[np.float64]) -> int:
+        self.points.append((float(p[0]), float(p[1])))
+        self.adj.append([])
+        self.rim_of.append(rim)
+        return len(self.points) - 1
 
     def _craters_near_rims(self, world: World, clearance: float) -> list[list[XYR]]:
         """Per rim, the craters an arc driven around it could touch (a k-d tree finds the
@@ -150,13 +172,6 @@ class TangentGraph:
     def _in_area_all(self, p: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
         w, h = self._world.width, self._world.height
         return (p[:, 0] >= 0.0) & (p[:, 0] <= w) & (p[:, 1] >= 0.0) & (p[:, 1] <= h)
-
-    def _add_node(self, rim: int, p: Point) -> int:
-        node = len(self.points)
-        self.points.append(p)
-        self.adj.append([])
-        self.rings[rim].append((self._angle(rim, p), node))
-        return node
 
     def _angle(self, rim: int, p: Point) -> float:
         c = self.rims[rim]
@@ -236,19 +251,18 @@ class TangentGraph:
         extra: dict[int, list[Edge]],
         rim: int,
         temps: list[tuple[float, int]],
-        first: int,
         where: Callable[[int], Point],
     ) -> None:
         """Arcs from a query's tangent points on one rim to their angular neighbours: the
         nearest fixed node either way round (found by bisection) and each other."""
-        ring = self.rings[rim]
+        ring = self.ring(rim)
         near = set(temps)
         for angle, _ in temps:
             if ring:
-                k = bisect_left(ring, (angle, -1))
+                k = bisect_left(ring, (angle, -(2**62)))
                 near.add(ring[k % len(ring)])
                 near.add(ring[k - 1])
-        self._link_ring(extra, rim, sorted(near), lambda a, b: a >= first or b >= first, where)
+        self._link_ring(extra, rim, sorted(near), lambda a, b: a < 0 or b < 0, where)
 
     def _in_area(self, p: Point) -> bool:
         return 0.0 <= p[0] <= self._world.width and 0.0 <= p[1] <= self._world.height
@@ -260,24 +274,35 @@ class TangentGraph:
         each such tangent point through arcs to its neighbours on its rim."""
         if self._index.segment_free(start, goal):
             return (start, goal)
-        first = len(self.points)
-        source, target = first, first + 1
+        source, target = -1, -2  # the query's own nodes are negative: rims open meanwhile
         points: dict[int, Point] = {source: start, target: goal}
         extra: dict[int, list[Edge]] = {}
         touched: dict[int, list[tuple[float, int]]] = {}
+        rim_of: dict[int, int] = {}
         for end, node in ((start, source), (goal, target)):
             for i, t in self._free_tangents(end):
-                tn = first + len(points)
+                tn = -1 - len(points)
                 points[tn] = t
+                rim_of[tn] = i
                 self._link(extra, node, tn, (end, t), dist(end, t))
                 touched.setdefault(i, []).append((self._angle(i, t), tn))
 
         def where(n: int) -> Point:
-            return points[n] if n >= first else self.points[n]
+            return points[n] if n < 0 else self.points[n]
 
-        for i, temps in touched.items():
-            self._link_temps(extra, i, temps, first, where)
-        route = _astar(source, target, goal, self.adj, extra, where)
+        linked: set[int] = set()
+
+        def reach(n: int) -> None:
+            """Before A* leaves node n: its rim's arcs exist, and the query's nodes on it."""
+            rim = rim_of.get(n, -1) if n < 0 else self.rim_of[n]
+            if rim < 0 or rim in linked:
+                return
+            linked.add(rim)
+            self.ring(rim)
+            if rim in touched:
+                self._link_temps(extra, rim, touched[rim], where)
+
+        route = _astar(source, target, goal, self.adj, extra, where, reach)
         if route is None:
             raise PlanningError(f"no path from {start} to {goal}")
         out: list[Point] = [start]
@@ -293,12 +318,13 @@ def _astar(
     adj: list[list[Edge]],
     extra: dict[int, list[Edge]],
     where: Callable[[int], Point],
+    reach: Callable[[int], None],
 ) -> list[Leg] | None:
-    """The legs of the shortest route, in order (None if there is no route)."""
+    """The legs of the shortest route, in order (None if there is no route); `reach(u)` is
+    called before node u's edges are read (the graph grows as the search goes)."""
     best: dict[int, float] = {source: 0.0}
     came: dict[int, tuple[int, Leg]] = {}
     heap: list[tuple[float, float, int]] = [(dist(where(source), goal), 0.0, source)]
-    n_fixed = len(adj)
     while heap:
         _, g, u = heapq.heappop(heap)
         if u == target:
@@ -309,8 +335,9 @@ def _astar(
             return route[::-1]
         if g > best.get(u, math.inf):
             continue
+        reach(u)
         edges = extra.get(u, [])
-        if u < n_fixed:
+        if u >= 0:
             edges = adj[u] + edges
         for v, w, leg in edges:
             ng = g + w
@@ -321,19 +348,19 @@ def _astar(
     return None
 
 
-def _all_bitangents(
-    xyr: npt.NDArray[np.float64],
-) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """Every segment tangent to two discs: per pair i < j (in order), two outer always and two
-    inner if the discs are apart. Returns each segment's (i, j) and its ends on i and on j."""
-    i, j = np.triu_indices(len(xyr), k=1)
+def _bitangents(
+    xyr: npt.NDArray[np.float64], i: npt.NDArray[np.int64], j: npt.NDArray[np.int64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+    """The segments tangent to discs i and j (arrays of pairs): two outer always, two inner if
+    the discs are apart. Four blocks of len(i) rows (outer +, outer -, inner +, inner -): the
+    ends on i, on j, and whether the segment exists."""
     x1, y1, r1 = xyr[i, 0], xyr[i, 1], xyr[i, 2]
     dx, dy = xyr[j, 0] - x1, xyr[j, 1] - y1
     d = np.hypot(dx, dy)
     apart = d > np.abs(r1 - xyr[j, 2])
     d = np.where(apart, d, 1.0)
     vx, vy = dx / d, dy / d
-    pairs, ps, qs, oks = [], [], [], []
+    ps, qs, oks = [], [], []
     for r2 in (xyr[j, 2], -xyr[j, 2]):  # outer, then inner
         c = (r1 - r2) / d
         ok = apart & (c * c <= 1.0)
@@ -343,14 +370,7 @@ def _all_bitangents(
             ps.append(np.stack([x1 + r1 * nx, y1 + r1 * ny], axis=1))
             qs.append(np.stack([xyr[j, 0] + r2 * nx, xyr[j, 1] + r2 * ny], axis=1))
             oks.append(ok)
-            pairs.append(np.stack([i, j], axis=1))
-    order = np.arange(4 * len(i)).reshape(4, -1).T.ravel()  # pair by pair, as listed above
-    keep = np.concatenate(oks)[order]
-    return (
-        np.concatenate(pairs)[order][keep],
-        np.concatenate(ps)[order][keep],
-        np.concatenate(qs)[order][keep],
-    )
+    return np.concatenate(ps), np.concatenate(qs), np.concatenate(oks)
 
 
 def _arc_length(r: float, sweep: float) -> float:
