@@ -74,22 +74,37 @@ class Liveness:
         if receivers is None:
             n = len(self.names)
             self.heard[:n, s] = t
-            self.floor[s] = t
+            self._column_heard(s, t)
             self.hb_seen[:n, s] = serial  # serials only grow, and this one reached all
             return
         self.heard[receivers, s] = t
+        self._first_heard(s, t)
         self.hb_seen[receivers, s] = np.maximum(self.hb_seen[receivers, s], serial)
+
+    def _column_heard(self, s: int, t: float) -> None:
+        """Everyone heard `s` at `t`: its floor rises to `t`, or comes down from inf (its first
+        hearing), and then the minimum must come down too."""
+        self.floor[s] = t
+        self._floor_min = min(self._floor_min, t)
+
+    def _first_heard(self, s: int, t: float) -> None:
+        """A single write can set an entry never heard before (inf) to `t`: the floor must
+        come down to it (every other entry is at least the floor already)."""
+        if t < self.floor[s]:
+            self.floor[s] = t
+            self._floor_min = min(self._floor_min, t)
 
     def heard_everywhere(self, sender: str, t: float) -> None:
         s = self.index.get(sender)
         if s is not None:
             self.heard[: len(self.names), s] = t
-            self.floor[s] = t
+            self._column_heard(s, t)
 
     def heard_from(self, receiver: str, sender: str, t: float) -> None:
         r, s = self.index.get(receiver), self.index.get(sender)
         if r is not None and s is not None:
             self.heard[r, s] = t
+            self._first_heard(s, t)
 
     def last_heard(self, receiver: str, sender: str) -> float:
         r, s = self.index.get(receiver), self.index.get(sender)

@@ -2,10 +2,17 @@
 
 Craters are static discs, so a shortest path between two free points is made of straight
 segments tangent to the (clearance-inflated) discs and arcs along their rims. The graph's
-nodes are the tangent points of every pair of discs (built once per world) plus, per query,
-the tangents from the start and the goal; its edges are the collision-free tangent segments
-and the free arcs between angularly neighbouring nodes on one rim. A* with the straight-line
-heuristic finds the shortest route.
+nodes are the tangent points of every pair of discs plus, per query, the tangents from the
+start and the goal; its edges are the collision-free tangent segments and the free arcs
+between angularly neighbouring nodes on one rim. A* with the straight-line heuristic finds the
+shortest route.
+
+The graph is built lazily, one rim at a time: a rim is opened (its bitangents tested, its
+ring of nodes and arcs made) when A* first leaves a node on it, and stays open for the
+world's later queries. A* only needs the edges of the nodes it leaves, so the route is the
+one the whole graph gives, but a query on a big world opens only the rims near its route
+(the whole graph has ~210,000 nodes at 600 craters). Segments are tested many at once on a
+crater grid (engine/segment_grid.py).
 
 Robots drive polylines, so an arc is driven as a polygon circumscribed about the rim (every
 edge tangent to it, so it never cuts into the crater) with a step of at most `ARC_STEP`
@@ -25,9 +32,12 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree  # type: ignore[import-untyped]
 
 from engine.geometry import Point, dist, segment_point_distance
 from engine.planning import Path, PlanningError, ShortcutPlanner
+from engine.segment_grid import SegmentGrid, grid_step
 from engine.world import CLEARANCE, World
 
 ARC_STEP = math.radians(5.0)
@@ -61,6 +71,7 @@ class _Arc(NamedTuple):
         return tuple(reversed(poly)) if self.reverse else poly
 
 
+XYR = tuple[float, float, float]
 Leg = Path | _Arc
 Edge = tuple[int, float, Leg]  # (to node, cost, the leg driven from the edge's start)
 
@@ -81,17 +92,13 @@ class TangentGraph:
         )
         self.points: list[Point] = []
         self.adj: list[list[Edge]] = []
-        self.rings: list[list[tuple[float, int]]] = [[] for _ in self.rims]  # (angle, node)
-        # the craters an arc driven around each rim could touch: only these are checked
-        self._near_rim = [
-            [
-                (c.x, c.y, c.r + clearance)
-                for k, c in enumerate(world.craters)
-                if k != i
-                and math.hypot(c.x - rim.x, c.y - rim.y) < c.r + clearance + rim.r / _COS_HALF
-            ]
-            for i, rim in enumerate(self.rims)
-        ]
+        self.rim_of: list[int] = []
+        # (angle, node) per rim, None until the rim is opened (`ring`)
+        self.rings: list[list[tuple[float, int]] | None] = [None for _ in self.rims]
+        self._grid = SegmentGrid(
+            self._craters_xyr, grid_step(self._craters_xyr, world.width, world.height)
+        )
+        self._near_rim = self._craters_near_rims(world, clearance)
         self._clear_rim = [  # no crater near, the whole ring in the area: every arc is free
             not self._near_rim[i]
             and all(
@@ -100,22 +107,71 @@ class TangentGraph:
             )
             for i, rim in enumerate(self.rims)
         ]
-        for i in range(len(self.rims)):
-            for j in range(i + 1, len(self.rims)):
-                for p, q in _bitangents(self.rims[i], self.rims[j]):
-                    if self._free_segment(p, q):
-                        a, b = self._add_node(i, p), self._add_node(j, q)
-                        self._link(self.adj, a, b, (p, q), dist(p, q))
-        for i, ring in enumerate(self.rings):
-            ring.sort()
-            self._link_ring(self.adj, i, ring, lambda a, b: True)
+        self._pending: list[list[int]] = [[] for _ in self.rims]  # nodes on unopened rims
+        self.opened = 0
 
-    def _add_node(self, rim: int, p: Point) -> int:
-        node = len(self.points)
-        self.points.append(p)
+    def ring(self, i: int) -> list[tuple[float, int]]:
+        """Rim i's nodes in angular order, joined by their free arcs; built the first time a
+        route reaches the rim (A* looks at few rims, so a big world's graph is built only
+        where routes go).
+
+        Opening rim i tests its bitangents to every rim not opened yet (all at once on the
+        crater grid) and makes a node at each end of a free one; its bitangents to rims opened
+        before were tested then, and their nodes on i wait in `_pending[i]`."""
+        ring = self.rings[i]
+        if ring is not None:
+            return ring
+        self.opened += 1
+        closed = np.array([j for j, r in enumerate(self.rings) if r is None and j != i], dtype=int)
+        lo, hi = np.minimum(closed, i), np.maximum(closed, i)
+        p, q, ok = _bitangents(self._rim_xyr, lo, hi)
+        ok &= self._in_area_all(p) & self._in_area_all(q)
+        ok[ok] = self._grid.free(p[ok, 0], p[ok, 1], q[ok, 0], q[ok, 1])
+        mine = self._pending[i]
+        self._pending[i] = []
+        los, his = np.tile(lo, 4).tolist(), np.tile(hi, 4).tolist()
+        for k in np.flatnonzero(ok).tolist():
+            a, b = self._node(los[k], p[k]), self._node(his[k], q[k])
+            self._link(
+                self.adj,
+                a,
+                b,
+                (self.points[a], self.points[b]),
+                dist(self.points[a], self.points[b]),
+            )
+            mine.append(a if los[k] == i else b)
+            self._pending[his[k] if los[k] == i else los[k]].append(b if los[k] == i else a)
+        ring = sorted((self._angle(i, self.points[n]), n) for n in mine)
+        self.rings[i] = ring
+        self._link_ring(self.adj, i, ring, lambda a, b: True)
+        return ring
+
+    def _node(self, rim: int, p: npt.NDArray[np.float64]) -> int:
+        self.points.append((float(p[0]), float(p[1])))
         self.adj.append([])
-        self.rings[rim].append((self._angle(rim, p), node))
-        return node
+        self.rim_of.append(rim)
+        return len(self.points) - 1
+
+    def _craters_near_rims(self, world: World, clearance: float) -> list[list[XYR]]:
+        """Per rim, the craters an arc driven around it could touch (a k-d tree finds the
+        candidate pairs; only these are checked when an arc is linked)."""
+        out: list[list[XYR]] = [[] for _ in self.rims]
+        if len(self.rims) < 2:
+            return out
+        reach = float(self._craters_xyr[:, 2].max() + self._rim_xyr[:, 2].max() / _COS_HALF)
+        tree = cKDTree(self._rim_xyr[:, :2])
+        for i, k in sorted(tree.query_pairs(reach, output_type="ndarray").tolist()):
+            for rim, other in ((i, k), (k, i)):
+                c, own = world.craters[other], self.rims[rim]
+                if math.hypot(c.x - own.x, c.y - own.y) < c.r + clearance + own.r / _COS_HALF:
+                    out[rim].append((c.x, c.y, c.r + clearance))
+        for near in out:
+            near.sort()
+        return out
+
+    def _in_area_all(self, p: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+        w, h = self._world.width, self._world.height
+        return (p[:, 0] >= 0.0) & (p[:, 0] <= w) & (p[:, 1] >= 0.0) & (p[:, 1] <= h)
 
     def _angle(self, rim: int, p: Point) -> float:
         c = self.rims[rim]
@@ -129,7 +185,11 @@ class TangentGraph:
         leg: Leg,
         cost: float,
     ) -> None:
-        back: Leg = leg._replace(reverse=True) if isinstance(leg, _Arc) else (leg[1], leg[0])
+        back: Leg = (
+            _Arc(leg.rim, leg.p, leg.q, leg.a0, leg.sweep, True)
+            if isinstance(leg, _Arc)
+            else (leg[1], leg[0])
+        )
         (adj[a] if isinstance(adj, list) else adj.setdefault(a, [])).append((b, cost, leg))
         (adj[b] if isinstance(adj, list) else adj.setdefault(b, [])).append((a, cost, back))
 
@@ -168,7 +228,7 @@ class TangentGraph:
 
     def _free_tangents(self, p: Point) -> list[tuple[int, Point]]:
         """The tangent points p sees on every rim, with their rim: the segments from p are
-        tested against every crater at once (numpy), the per-query hot spot."""
+        tested all at once on the crater grid (numpy), the per-query hot spot."""
         rims = self._rim_xyr
         dx, dy = p[0] - rims[:, 0], p[1] - rims[:, 1]
         d = np.hypot(dx, dy)
@@ -181,16 +241,9 @@ class TangentGraph:
         ty = rims[rim_of, 1] + rims[rim_of, 2] * np.sin(ang)
         keep = np.concatenate([outside, outside])
         keep &= (tx >= 0.0) & (tx <= self._world.width) & (ty >= 0.0) & (ty <= self._world.height)
-        # distance from every crater centre (columns) to every segment p → t (rows)
-        sx, sy = tx - p[0], ty - p[1]
-        seg2 = np.maximum(sx * sx + sy * sy, 1e-300)
-        cx, cy, cr = self._craters_xyr[:, 0], self._craters_xyr[:, 1], self._craters_xyr[:, 2]
-        u = ((cx[None, :] - p[0]) * sx[:, None] + (cy[None, :] - p[1]) * sy[:, None]) / seg2[
-            :, None
-        ]
-        u = np.clip(u, 0.0, 1.0)
-        gap = np.hypot(p[0] + u * sx[:, None] - cx[None, :], p[1] + u * sy[:, None] - cy[None, :])
-        keep &= (gap > cr[None, :]).all(axis=1)
+        keep[keep] = self._grid.free(
+            np.full(int(keep.sum()), p[0]), np.full(int(keep.sum()), p[1]), tx[keep], ty[keep]
+        )
         return [(int(rim_of[k]), (float(tx[k]), float(ty[k]))) for k in np.flatnonzero(keep)]
 
     def _link_temps(
@@ -198,25 +251,21 @@ class TangentGraph:
         extra: dict[int, list[Edge]],
         rim: int,
         temps: list[tuple[float, int]],
-        first: int,
         where: Callable[[int], Point],
     ) -> None:
         """Arcs from a query's tangent points on one rim to their angular neighbours: the
         nearest fixed node either way round (found by bisection) and each other."""
-        ring = self.rings[rim]
+        ring = self.ring(rim)
         near = set(temps)
         for angle, _ in temps:
             if ring:
-                k = bisect_left(ring, (angle, -1))
+                k = bisect_left(ring, (angle, -(2**62)))
                 near.add(ring[k % len(ring)])
                 near.add(ring[k - 1])
-        self._link_ring(extra, rim, sorted(near), lambda a, b: a >= first or b >= first, where)
+        self._link_ring(extra, rim, sorted(near), lambda a, b: a < 0 or b < 0, where)
 
     def _in_area(self, p: Point) -> bool:
         return 0.0 <= p[0] <= self._world.width and 0.0 <= p[1] <= self._world.height
-
-    def _free_segment(self, p: Point, q: Point) -> bool:
-        return self._in_area(p) and self._in_area(q) and self._index.segment_free(p, q)
 
     def shortest(self, start: Point, goal: Point) -> Path:
         """The shortest collision-free path from start to goal (A* over the tangent graph).
@@ -225,24 +274,35 @@ class TangentGraph:
         each such tangent point through arcs to its neighbours on its rim."""
         if self._index.segment_free(start, goal):
             return (start, goal)
-        first = len(self.points)
-        source, target = first, first + 1
+        source, target = -1, -2  # the query's own nodes are negative: rims open meanwhile
         points: dict[int, Point] = {source: start, target: goal}
         extra: dict[int, list[Edge]] = {}
         touched: dict[int, list[tuple[float, int]]] = {}
+        rim_of: dict[int, int] = {}
         for end, node in ((start, source), (goal, target)):
             for i, t in self._free_tangents(end):
-                tn = first + len(points)
+                tn = -1 - len(points)
                 points[tn] = t
+                rim_of[tn] = i
                 self._link(extra, node, tn, (end, t), dist(end, t))
                 touched.setdefault(i, []).append((self._angle(i, t), tn))
 
         def where(n: int) -> Point:
-            return points[n] if n >= first else self.points[n]
+            return points[n] if n < 0 else self.points[n]
 
-        for i, temps in touched.items():
-            self._link_temps(extra, i, temps, first, where)
-        route = _astar(source, target, goal, self.adj, extra, where)
+        linked: set[int] = set()
+
+        def reach(n: int) -> None:
+            """Before A* leaves node n: its rim's arcs exist, and the query's nodes on it."""
+            rim = rim_of.get(n, -1) if n < 0 else self.rim_of[n]
+            if rim < 0 or rim in linked:
+                return
+            linked.add(rim)
+            self.ring(rim)
+            if rim in touched:
+                self._link_temps(extra, rim, touched[rim], where)
+
+        route = _astar(source, target, goal, self.adj, extra, where, reach)
         if route is None:
             raise PlanningError(f"no path from {start} to {goal}")
         out: list[Point] = [start]
@@ -258,12 +318,13 @@ def _astar(
     adj: list[list[Edge]],
     extra: dict[int, list[Edge]],
     where: Callable[[int], Point],
+    reach: Callable[[int], None],
 ) -> list[Leg] | None:
-    """The legs of the shortest route, in order (None if there is no route)."""
+    """The legs of the shortest route, in order (None if there is no route); `reach(u)` is
+    called before node u's edges are read (the graph grows as the search goes)."""
     best: dict[int, float] = {source: 0.0}
     came: dict[int, tuple[int, Leg]] = {}
     heap: list[tuple[float, float, int]] = [(dist(where(source), goal), 0.0, source)]
-    n_fixed = len(adj)
     while heap:
         _, g, u = heapq.heappop(heap)
         if u == target:
@@ -274,8 +335,9 @@ def _astar(
             return route[::-1]
         if g > best.get(u, math.inf):
             continue
+        reach(u)
         edges = extra.get(u, [])
-        if u < n_fixed:
+        if u >= 0:
             edges = adj[u] + edges
         for v, w, leg in edges:
             ng = g + w
@@ -286,25 +348,29 @@ def _astar(
     return None
 
 
-def _bitangents(c1: _Rim, c2: _Rim) -> list[tuple[Point, Point]]:
-    """The segments tangent to both discs: two outer always, two inner if they are apart."""
-    dx, dy = c2.x - c1.x, c2.y - c1.y
-    d = math.hypot(dx, dy)
-    if d <= abs(c1.r - c2.r):
-        return []
+def _bitangents(
+    xyr: npt.NDArray[np.float64], i: npt.NDArray[np.int64], j: npt.NDArray[np.int64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+    """The segments tangent to discs i and j (arrays of pairs): two outer always, two inner if
+    the discs are apart. Four blocks of len(i) rows (outer +, outer -, inner +, inner -): the
+    ends on i, on j, and whether the segment exists."""
+    x1, y1, r1 = xyr[i, 0], xyr[i, 1], xyr[i, 2]
+    dx, dy = xyr[j, 0] - x1, xyr[j, 1] - y1
+    d = np.hypot(dx, dy)
+    apart = d > np.abs(r1 - xyr[j, 2])
+    d = np.where(apart, d, 1.0)
     vx, vy = dx / d, dy / d
-    out: list[tuple[Point, Point]] = []
-    for r2 in (c2.r, -c2.r):  # outer, then inner
-        c = (c1.r - r2) / d
-        if c * c > 1.0:
-            continue
-        h = math.sqrt(max(0.0, 1.0 - c * c))
+    ps, qs, oks = [], [], []
+    for r2 in (xyr[j, 2], -xyr[j, 2]):  # outer, then inner
+        c = (r1 - r2) / d
+        ok = apart & (c * c <= 1.0)
+        h = np.sqrt(np.maximum(0.0, 1.0 - c * c))
         for sign in (1.0, -1.0):
             nx, ny = vx * c - sign * h * vy, vy * c + sign * h * vx
-            p = (c1.x + c1.r * nx, c1.y + c1.r * ny)
-            q = (c2.x + r2 * nx, c2.y + r2 * ny)
-            out.append((p, q))
-    return out
+            ps.append(np.stack([x1 + r1 * nx, y1 + r1 * ny], axis=1))
+            qs.append(np.stack([xyr[j, 0] + r2 * nx, xyr[j, 1] + r2 * ny], axis=1))
+            oks.append(ok)
+    return np.concatenate(ps), np.concatenate(qs), np.concatenate(oks)
 
 
 def _arc_length(r: float, sweep: float) -> float:
@@ -351,33 +417,3 @@ class TangentPlanner(ShortcutPlanner):
 
     def close(self) -> None:
         self._graph = None
-
-
-def dense_visibility_length(world: World, start: Point, goal: Point, per_rim: int = 72) -> float:
-    """An independent check of the tangent graph, for tests and the bench (slow: O(n²)).
-
-    Dijkstra over a dense visibility graph of points just outside every rim: every route it
-    finds is drivable, so its length bounds the shortest from above and converges to it as
-    `per_rim` grows. The tangent graph's route is never longer (but for its polygonal arcs).
-    """
-    pts = [start, goal]
-    for c in world.craters:
-        big = (c.r + CLEARANCE) * 1.0001 / math.cos(math.pi / per_rim) + 1e-6
-        for k in range(per_rim):
-            a = 2 * math.pi * k / per_rim
-            p = (c.x + big * math.cos(a), c.y + big * math.sin(a))
-            if world.is_free(*p):
-                pts.append(p)
-    best, heap = {0: 0.0}, [(0.0, 0)]
-    while heap:
-        g, u = heapq.heappop(heap)
-        if u == 1:
-            return g
-        if g > best.get(u, math.inf):
-            continue
-        for v, p in enumerate(pts):
-            ng = g + dist(pts[u], p)
-            if v != u and ng < best.get(v, math.inf) and world.index.segment_free(pts[u], p):
-                best[v] = ng
-                heapq.heappush(heap, (ng, v))
-    return math.inf

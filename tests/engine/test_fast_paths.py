@@ -112,7 +112,7 @@ def test_shortcuts_change_nothing(seed, policy, bus, every_round, actions):
     ),
     timeout=st.floats(0.5, 20.0),
 )
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=300, deadline=None)
 def test_silent_peers_match_a_look_at_every_entry(ops, timeout):
     """The floor never hides a silent peer: `silent` answers as a scan of the row does."""
     board = Liveness(capacity=2)

@@ -15,7 +15,9 @@ from engine import run_mission
 from engine.geometry import Point, path_length
 from engine.planning import OmplPlanner, PlanningError
 from engine.scenario import Crater
-from engine.tangent_planner import TangentPlanner, dense_visibility_length
+from engine.segment_grid import SegmentGrid, grid_step
+from engine.tangent_planner import TangentPlanner
+from engine.visibility_check import dense_visibility_length
 from engine.world import CLEARANCE, CraterIndex, World
 from tests.engine.factories import small_scenario
 
@@ -101,3 +103,21 @@ def test_a_mission_on_the_exact_planner_is_deterministic_and_complete() -> None:
     assert first == again
     assert first["status"] == "completed"
     assert first["minerals_delivered"] == first["minerals_total"]
+
+
+@pytest.mark.parametrize("n_craters", [5, 300])  # every disc at once, and the grid march
+def test_the_segment_grid_agrees_with_the_crater_index(n_craters: int) -> None:
+    rng = np.random.default_rng(n_craters)
+    side = 400.0
+    w = world_of(
+        [(*rng.uniform(0, side, 2), rng.uniform(2.0, 5.0)) for _ in range(n_craters)], side
+    )
+    xyr = np.array([(c.x, c.y, c.r + CLEARANCE) for c in w.craters])
+    grid = SegmentGrid(xyr, grid_step(xyr, side, side))
+    a, b = rng.uniform(0, side, (3000, 2)), rng.uniform(0, side, (3000, 2))
+    b[:1000] = a[:1000] + rng.normal(0, 6.0, (1000, 2))  # short ones, some grazing a rim
+    b[1000:1010] = a[1000:1010]  # single points
+    got = grid.free(a[:, 0], a[:, 1], b[:, 0], b[:, 1])
+    want = [w.index.segment_free(tuple(p), tuple(q)) for p, q in zip(a, b, strict=True)]
+    assert got.tolist() == want
+    assert 0 < sum(want) < len(want)
