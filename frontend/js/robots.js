@@ -60,6 +60,7 @@ export class RobotTable {
     const key = robots.map((r) => r.name).join(",");
     let changedOrder = key !== this.names;
     if (changedOrder) {
+      if (!robots.some((r) => r.charge != null)) this.tbody.closest("table")?.classList.remove("with-charge");
       this.names = key;
       this.sorted = [...robots].sort(byName);
     } else {
@@ -174,6 +175,7 @@ export class RobotTable {
     // battery charge (scenarios with energy on; docs/model.md#energy)
     setText(row.cells.charge, r.charge === undefined || r.charge === null ? "" : `${Math.round(r.charge * 100)}%`);
     row.tr.dataset.charge = r.charge ?? "";
+    if (r.charge !== undefined && r.charge !== null) this.tbody.closest("table")?.classList.add("with-charge");
     setText(row.cells.dist, r.distance === undefined ? "" : fmt(r.distance, 0));
     row.tr.dataset.distance = r.distance ?? ""; // exact, for tests (the cell is rounded)
     row.tr.dataset.task = r.task ?? "";
