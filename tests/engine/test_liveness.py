@@ -75,7 +75,7 @@ def test_a_recorded_live_chaos_session_completes() -> None:
 # The generator draws each action from the robots' states at its time (experiments/chaos.py):
 # disable graceful/abrupt, enable, add, inject, switch policy, 15% of them at the same instant
 # as the one before; then every robot is enabled. bench/chaos_bench.py runs the larger sample.
-SEEDS = range(40)
+SEEDS = range(24)  # x 7 policies: 168 missions in CI
 CASES = [(seed, policy) for seed in SEEDS for policy in sorted(POLICIES)]
 
 # Once every robot is back, finishing may take at most twice the whole fault-free mission:

@@ -13,7 +13,7 @@ from tests.engine.factories import small_scenario
 
 
 @settings(
-    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True
 )
 @given(
     seed=st.integers(0, 100_000),
