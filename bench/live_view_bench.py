@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import os
 import socket
-import subprocess
 import sys
 import tempfile
 import time
@@ -34,6 +33,8 @@ from playwright.sync_api import sync_playwright
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+from service_bench import start_server  # noqa: E402 - bench/, beside this script
+
 from engine import reference_scenario  # noqa: E402 - after the path is set
 
 TOKEN = "bench-operator-token-0123456789"
@@ -77,23 +78,6 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
-
-
-def start_server(data_dir: Path, port: int) -> subprocess.Popen[bytes]:
-    env = {**os.environ, "REGOLITH_TOKEN": TOKEN, "REGOLITH_RATE_LIMIT_PER_S": "0"}
-    env["REGOLITH_MAX_ROBOTS"] = "2000"  # a scale-100 team is 1,200 (the default allows 500)
-    cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
-    cmd += ["--port", str(port), "--data-dir", str(data_dir), "--log-level", "warning"]
-    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        try:
-            if httpx.get(f"http://127.0.0.1:{port}/api/health").status_code == 200:
-                return proc
-        except httpx.TransportError:
-            time.sleep(0.1)
-    proc.kill()
-    raise SystemExit("server did not start")
 
 
 def pct(values: list[float], q: float) -> float:
@@ -192,7 +176,8 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         port = free_port()
-        proc = start_server(Path(tmp), port)
+        # a scale-100 team is 1,200 robots (the default allows 500)
+        proc = start_server(Path(tmp), port, {"REGOLITH_MAX_ROBOTS": "2000"})
         base = f"http://127.0.0.1:{port}"
         try:
             with httpx.Client(base_url=base, headers=AUTH, timeout=60) as api:

@@ -61,10 +61,13 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def start_server(data_dir: Path, port: int) -> subprocess.Popen[bytes]:
-    env = {**os.environ, "REGOLITH_TOKEN": TOKEN, "REGOLITH_MAX_VIEWERS": "1000"}
-    env["REGOLITH_VIEWER_QUEUE"] = str(STALL_QUEUE)  # the stalled viewer lasts its window
-    env["REGOLITH_RATE_LIMIT_PER_S"] = "0"  # the control phase is a deliberate burst
+def start_server(
+    data_dir: Path, port: int, extra_env: dict[str, str] | None = None
+) -> subprocess.Popen[bytes]:
+    """`regolith serve` with the bench token and no rate limit (each bench's phases are
+    deliberate bursts), plus `extra_env`; returns once it answers."""
+    env = {**os.environ, "REGOLITH_TOKEN": TOKEN, "REGOLITH_RATE_LIMIT_PER_S": "0"}
+    env.update(extra_env or {})
     cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
     cmd += ["--port", str(port), "--data-dir", str(data_dir), "--log-level", "warning"]
     proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)
@@ -337,7 +340,9 @@ def main() -> None:
     phases = args.phases.split(",") + (["stalled"] if args.stalled else [])
     port = free_port()
     with tempfile.TemporaryDirectory() as tmp:
-        server = start_server(Path(tmp), port)
+        # many viewers, and a stalled viewer that lasts its window
+        viewers = {"REGOLITH_MAX_VIEWERS": "1000", "REGOLITH_VIEWER_QUEUE": str(STALL_QUEUE)}
+        server = start_server(Path(tmp), port, viewers)
         try:
             proc = psutil.Process(server.pid)
             base = f"http://127.0.0.1:{port}"
