@@ -38,21 +38,20 @@ def _time_solves() -> list[float]:
 
     seconds: list[float] = []
 
-    class TimedOmplPlanner(OmplPlanner):
-        def _solve(self, start: Point, goal: Point) -> Path:
-            t0 = time.perf_counter()
-            try:
-                return super()._solve(start, goal)
-            finally:
-                seconds.append(time.perf_counter() - t0)
+    def timed(base: type[Any]) -> type[Any]:
+        """`base` with each solve's wall time appended to `seconds`."""
 
-    class TimedTangentPlanner(TangentPlanner):
-        def _solve(self, start: Point, goal: Point) -> Path:
-            t0 = time.perf_counter()
-            try:
-                return super()._solve(start, goal)
-            finally:
-                seconds.append(time.perf_counter() - t0)
+        class Timed(base):  # type: ignore[misc,valid-type]
+            def _solve(self, start: Point, goal: Point) -> Path:
+                t0 = time.perf_counter()
+                try:
+                    return super()._solve(start, goal)  # type: ignore[no-any-return]
+                finally:
+                    seconds.append(time.perf_counter() - t0)
+
+        return Timed
+
+    TimedOmplPlanner, TimedTangentPlanner = timed(OmplPlanner), timed(TangentPlanner)
 
     engine.mission.OmplPlanner = TimedOmplPlanner  # type: ignore[misc]
     engine.mission.TangentPlanner = TimedTangentPlanner  # type: ignore[misc]
