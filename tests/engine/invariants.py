@@ -44,3 +44,14 @@ class InvariantWatch:
             else:
                 assert rec.allocated_to is None
                 assert not accepted, rec.to_dict()
+
+
+def run_checked(m: Mission) -> dict:
+    """Run `m` to its end with the invariants checked at every event; it must complete with
+    every mineral delivered. Returns the run's metrics."""
+    watch = InvariantWatch(m)
+    out = m.run()
+    watch.final()
+    assert m.status == "completed", m.stall_report() if m.status == "stalled" else m.status
+    assert out["minerals_delivered"] == out["minerals_total"]
+    return out

@@ -8,7 +8,7 @@ from engine import Mission, reference_scenario
 from engine.policies import Lookahead, resolve_policy
 from engine.robots.excavator import transports_due
 from tests.engine.factories import events_of, quiet_scenario, run_with_failures, small_scenario
-from tests.engine.invariants import InvariantWatch
+from tests.engine.invariants import run_checked
 
 PLANT = (50.0, 50.0)
 
@@ -134,11 +134,7 @@ def test_invariants_hold_under_lookahead_with_failures(seed):
 
 def test_invariants_hold_under_lookahead_on_small_worlds():
     for seed in range(4):
-        m = Mission(small_scenario(), seed, "lookahead")
-        watch = InvariantWatch(m)
-        m.run()
-        watch.final()
-        assert m.status == "completed"
+        run_checked(Mission(small_scenario(), seed, "lookahead"))
 
 
 def test_switching_to_and_from_lookahead_mid_pipeline_loses_nothing():

@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 
 from engine import POLICIES, Mission
 from tests.engine.factories import small_scenario
-from tests.engine.invariants import InvariantWatch
+from tests.engine.invariants import InvariantWatch, run_checked
 
 # every registered policy, so a new one is held to the same invariants from its first run
 ANY_POLICY = st.sampled_from(list(POLICIES))
@@ -32,11 +32,7 @@ def scenarios(draw):
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_invariants_hold_at_every_event(seed, scenario, policy):
     m = Mission(scenario, seed, policy)
-    watch = InvariantWatch(m)
-    m.run()
-    watch.final()
-    assert m.status == "completed"
-    assert m.ctx.field.delivered == m.ctx.field.minerals_total
+    run_checked(m)
     assert m.ctx.field.sites_found == len(m.ctx.field.sites)
 
 
@@ -90,9 +86,4 @@ def test_invariants_hold_on_a_lossy_slow_bus(seed, policy, loss, latency):
         team={"scouts": 2, "excavators": 2, "haulers": 3},
         bus={"loss": loss, "latency_s": latency, "jitter_s": latency},
     )
-    m = Mission(scenario, seed, policy)
-    watch = InvariantWatch(m)
-    m.run()
-    watch.final()
-    assert m.status == "completed"
-    assert m.ctx.field.delivered == m.ctx.field.minerals_total
+    run_checked(Mission(scenario, seed, policy))

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from engine import POLICIES, Mission
 from engine.radio import BASE, _reach_of, hop_reach
 from tests.engine.factories import small_scenario
-from tests.engine.invariants import InvariantWatch
+from tests.engine.invariants import InvariantWatch, run_checked
 from tests.engine.test_determinism import trace_digest
 from tests.engine.test_realism import ENERGY
 
@@ -85,10 +85,5 @@ def test_all_four_options_together_keep_the_invariants(seed, policy):
         uncertainty={"enabled": True, "work_cv": 0.3, "speed_cv": 0.1},
         radio={**RADIO, "range_m": 12.0, "base_range_m": 15.0},
     )
-    m = Mission(sc, seed, policy)
-    watch = InvariantWatch(m)
-    out = m.run()
-    watch.final()
-    assert m.status == "completed", m.stall_report() if m.status == "stalled" else m.status
-    assert out["minerals_delivered"] == out["minerals_total"]
+    out = run_checked(Mission(sc, seed, policy))
     assert out["radio_reach"] < 1.0

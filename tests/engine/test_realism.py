@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from engine import POLICIES, Mission, ScenarioError, parse_scenario
 from tests.engine.factories import small_scenario
-from tests.engine.invariants import InvariantWatch
+from tests.engine.invariants import InvariantWatch, run_checked
 from tests.engine.test_determinism import trace_digest
 
 ENERGY = {
@@ -107,12 +107,8 @@ def test_energy_docks_and_uncertain_work_keep_the_invariants(seed, policy):
         uncertainty={"enabled": True, "work_cv": 0.4, "speed_cv": 0.1},
     )
     m = Mission(sc, seed, policy)
-    watch = InvariantWatch(m)
     dry = _watch_energy(m)
-    out = m.run()
-    watch.final()
-    assert m.status == "completed", m.stall_report() if m.status == "stalled" else m.status
-    assert out["minerals_delivered"] == out["minerals_total"]
+    out = run_checked(m)
     assert out["charges"] > 0  # the batteries are small: every run charges
     assert out["ran_dry"] == len(dry)
 
