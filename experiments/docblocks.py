@@ -3,10 +3,12 @@
 
 from __future__ import annotations
 
+import functools
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 
+from experiments import realism_cost
 from experiments.docfmt import Sweep, last_found, mean, num, pm, pval, table
 from experiments.policyblocks import (
     STUDY,
@@ -85,6 +87,9 @@ def render_blocks(out: Path) -> dict[str, str]:
     for g in GRIDS:
         blocks[g] = lambda g=g: grid(Sweep(out / g), g)  # type: ignore[misc]
     blocks["grid-findings"] = lambda: grid_findings([Sweep(out / g) for g in GRIDS])
+    realism = functools.cache(lambda: realism_cost.load(out))  # two blocks, six sweeps
+    blocks["realism-cost"] = lambda: realism_cost.cost_table(realism())
+    blocks["realism-ranking"] = lambda: realism_cost.ranking(realism())
     rendered = {}
     for name, fn in blocks.items():
         text = fn()

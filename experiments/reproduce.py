@@ -38,6 +38,14 @@ REFERENCE_POLICIES = "1,2,3,4,5,0,6"
 """The reference sweep's policies, in table order: the one place to add a policy to it."""
 STUDY_POLICIES = "1,2,3,5"
 """The study's three policies and the relaxed Policy 2 (for context): the findings' sweeps."""
+REALISM_SCENARIOS = (
+    ("energy", "scenarios/realism/energy.toml"),
+    ("docks", "scenarios/realism/docks.toml"),
+    ("uncertainty", "scenarios/realism/uncertainty.toml"),
+    ("radio", "scenarios/realism/radio.toml"),
+    ("all", "scenarios/lunar-realistic.toml"),
+)
+"""The cost of realism (docs/experiments.md): each option alone, then all four together."""
 GRID_POLICIES = "1,2,3"
 GRID_SEEDS = "0-9"
 
@@ -49,6 +57,7 @@ class Experiment:
     seeds: str
     grid: tuple[str, ...] = ()
     variants: bool = False  # the policies are ablation variants (experiments.ablations)
+    scenario: str | None = None  # a scenario file under the repository (None: the reference)
     keep: tuple[str, ...] = ("runs.csv", "summary.json", "sweep.json")
 
     @property
@@ -57,7 +66,8 @@ class Experiment:
         if self.variants:
             return f"experiments.reproduce: variants {self.policies}, seeds {self.seeds}"
         grid = "".join(f" --grid {g}" for g in self.grid)
-        return f"regolith sweep --policies {self.policies} --seeds {self.seeds}{grid}"
+        scenario = f" --scenario {self.scenario}" if self.scenario else ""
+        return f"regolith sweep --policies {self.policies} --seeds {self.seeds}{scenario}{grid}"
 
 
 EXPERIMENTS: tuple[Experiment, ...] = (
@@ -90,11 +100,15 @@ EXPERIMENTS: tuple[Experiment, ...] = (
         GRID_SEEDS,
         ("protocol.bid_window_s=0.2,1,5", "sites=5,10,20"),
     ),
+    *(
+        Experiment(f"realism/{option}", REFERENCE_POLICIES, "0-99", scenario=file)
+        for option, file in REALISM_SCENARIOS
+    ),
 )
 
 
 def experiment_spec(exp: Experiment) -> Any:
-    from engine import POLICY_NAMES, reference_scenario, resolve_policy
+    from engine import POLICY_NAMES, load_scenario, reference_scenario, resolve_policy
     from experiments.ablations import VARIANTS
     from experiments.grid import parse_grid
     from experiments.spec import PolicyRef, make_spec, parse_policies, parse_seeds
@@ -108,7 +122,8 @@ def experiment_spec(exp: Experiment) -> Any:
     else:
         pols = parse_policies(exp.policies, resolve_policy, POLICY_NAMES)
     grid = parse_grid(list(exp.grid)) if exp.grid else None
-    return make_spec(pols, parse_seeds(exp.seeds), reference_scenario(), 1, grid)
+    scenario = load_scenario(ROOT / exp.scenario) if exp.scenario else reference_scenario()
+    return make_spec(pols, parse_seeds(exp.seeds), scenario, 1, grid)
 
 
 def run_experiment(exp: Experiment, out: Path, workers: int | None = None) -> float:
@@ -196,8 +211,12 @@ def trim_grid(summary: dict[str, Any]) -> dict[str, Any]:
 
 
 def copy_figures(out: Path, dest: Path = FIGURES) -> None:
-    """The reference sweep's figures and each grid's winner maps, as the docs show them."""
+    """The reference sweep's figures, each grid's winner maps and the cost of realism, as the
+    docs show them."""
+    from experiments import realism_cost
+
     dest.mkdir(parents=True, exist_ok=True)
+    realism_cost.figure(realism_cost.load(out), dest / "realism-cost.png")
     for png in sorted((out / "reference" / "figures").glob("*.png")):
         shutil.copyfile(png, dest / png.name)
     for exp in EXPERIMENTS:
