@@ -15,7 +15,7 @@ one the whole graph gives, but a query on a big world opens only the rims near i
 crater grid (engine/segment_grid.py).
 
 Robots drive polylines, so an arc is driven as a polygon circumscribed about the rim (every
-edge tangent to it, so it never cuts into the crater) with a step of at most `ARC_STEP`
+edge tangent to it, so it never cuts into the crater) with a step of at most `rims.ARC_STEP`
 radians; the edge's cost is that polyline's length, the distance the robot really drives.
 Its excess over the true arc is tan(δ/2)/(δ/2) − 1 ≈ 0.05 % for δ = 5°.
 
@@ -28,8 +28,6 @@ import heapq
 import math
 from bisect import bisect_left
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -37,42 +35,17 @@ from scipy.spatial import cKDTree  # type: ignore[import-untyped]
 
 from engine.geometry import Point, dist, segment_point_distance
 from engine.planning import Path, PlanningError, ShortcutPlanner
+from engine.rims import COS_HALF, Arc, Rim, arc_length, bitangents
 from engine.segment_grid import SegmentGrid, grid_step
 from engine.world import CLEARANCE, World
-
-ARC_STEP = math.radians(5.0)
-"""Largest angle one polygon edge of a driven arc covers."""
-_COS_HALF = math.cos(ARC_STEP / 2.0)
 
 _GROW = 1e-6
 """Rims are planned this much outside the inflated radius, so a tangent segment passes the
 index's strict `distance > radius` test despite rounding."""
 
 
-@dataclass(frozen=True, slots=True)
-class _Rim:
-    x: float
-    y: float
-    r: float  # inflated by the clearance and _GROW
-
-
-class _Arc(NamedTuple):
-    """An arc edge, realized as a polyline only when a route uses it."""
-
-    rim: _Rim
-    p: Point
-    q: Point
-    a0: float
-    sweep: float
-    reverse: bool  # driven from q back to p
-
-    def polyline(self) -> Path:
-        poly = _arc_polyline(self.rim, self.p, self.q, self.a0, self.sweep)
-        return tuple(reversed(poly)) if self.reverse else poly
-
-
 XYR = tuple[float, float, float]
-Leg = Path | _Arc
+Leg = Path | Arc
 Edge = tuple[int, float, Leg]  # (to node, cost, the leg driven from the edge's start)
 
 
@@ -83,8 +56,7 @@ class TangentGraph:
         self._world = world
         self._index = world.index
         self.rims = [
-            _Rim(c.x, c.y, c.r + clearance + _GROW + 1e-9 * (c.r + clearance))
-            for c in world.craters
+            Rim(c.x, c.y, c.r + clearance + _GROW + 1e-9 * (c.r + clearance)) for c in world.craters
         ]
         self._rim_xyr = np.array([(r.x, r.y, r.r) for r in self.rims]).reshape(-1, 3)
         self._craters_xyr = np.array([(c.x, c.y, c.r + clearance) for c in world.craters]).reshape(
@@ -102,7 +74,7 @@ class TangentGraph:
         self._clear_rim = [  # no crater near, the whole ring in the area: every arc is free
             not self._near_rim[i]
             and all(
-                v - rim.r / _COS_HALF >= 0.0 and v + rim.r / _COS_HALF <= side
+                v - rim.r / COS_HALF >= 0.0 and v + rim.r / COS_HALF <= side
                 for v, side in ((rim.x, world.width), (rim.y, world.height))
             )
             for i, rim in enumerate(self.rims)
@@ -124,7 +96,7 @@ class TangentGraph:
         self.opened += 1
         closed = np.array([j for j, r in enumerate(self.rings) if r is None and j != i], dtype=int)
         lo, hi = np.minimum(closed, i), np.maximum(closed, i)
-        p, q, ok = _bitangents(self._rim_xyr, lo, hi)
+        p, q, ok = bitangents(self._rim_xyr, lo, hi)
         ok &= self._in_area_all(p) & self._in_area_all(q)
         ok[ok] = self._grid.free(p[ok, 0], p[ok, 1], q[ok, 0], q[ok, 1])
         mine = self._pending[i]
@@ -158,12 +130,12 @@ class TangentGraph:
         out: list[list[XYR]] = [[] for _ in self.rims]
         if len(self.rims) < 2:
             return out
-        reach = float(self._craters_xyr[:, 2].max() + self._rim_xyr[:, 2].max() / _COS_HALF)
+        reach = float(self._craters_xyr[:, 2].max() + self._rim_xyr[:, 2].max() / COS_HALF)
         tree = cKDTree(self._rim_xyr[:, :2])
         for i, k in sorted(tree.query_pairs(reach, output_type="ndarray").tolist()):
             for rim, other in ((i, k), (k, i)):
                 c, own = world.craters[other], self.rims[rim]
-                if math.hypot(c.x - own.x, c.y - own.y) < c.r + clearance + own.r / _COS_HALF:
+                if math.hypot(c.x - own.x, c.y - own.y) < c.r + clearance + own.r / COS_HALF:
                     out[rim].append((c.x, c.y, c.r + clearance))
         for near in out:
             near.sort()
@@ -186,8 +158,8 @@ class TangentGraph:
         cost: float,
     ) -> None:
         back: Leg = (
-            _Arc(leg.rim, leg.p, leg.q, leg.a0, leg.sweep, True)
-            if isinstance(leg, _Arc)
+            Arc(leg.rim, leg.p, leg.q, leg.a0, leg.sweep, True)
+            if isinstance(leg, Arc)
             else (leg[1], leg[0])
         )
         (adj[a] if isinstance(adj, list) else adj.setdefault(a, [])).append((b, cost, leg))
@@ -209,11 +181,11 @@ class TangentGraph:
             a1, b = ring[(k + 1) % len(ring)]
             if not wanted(a, b):
                 continue
-            arc = _Arc(self.rims[rim], at(a), at(b), a0, (a1 - a0) % (2.0 * math.pi), False)
+            arc = Arc(self.rims[rim], at(a), at(b), a0, (a1 - a0) % (2.0 * math.pi), False)
             if self._arc_free(rim, arc):
-                self._link(adj, a, b, arc, _arc_length(arc.rim.r, arc.sweep))
+                self._link(adj, a, b, arc, arc_length(arc.rim.r, arc.sweep))
 
-    def _arc_free(self, rim: int, arc: _Arc) -> bool:
+    def _arc_free(self, rim: int, arc: Arc) -> bool:
         """A driven arc stays in the area and clear of the craters near its rim."""
         if self._clear_rim[rim]:
             return True
@@ -307,7 +279,7 @@ class TangentGraph:
             raise PlanningError(f"no path from {start} to {goal}")
         out: list[Point] = [start]
         for leg in route:
-            out.extend((leg.polyline() if isinstance(leg, _Arc) else leg)[1:])
+            out.extend((leg.polyline() if isinstance(leg, Arc) else leg)[1:])
         return tuple(out)
 
 
@@ -346,56 +318,6 @@ def _astar(
                 came[v] = (u, leg)
                 heapq.heappush(heap, (ng + dist(where(v), goal), ng, v))
     return None
-
-
-def _bitangents(
-    xyr: npt.NDArray[np.float64], i: npt.NDArray[np.int64], j: npt.NDArray[np.int64]
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
-    """The segments tangent to discs i and j (arrays of pairs): two outer always, two inner if
-    the discs are apart. Four blocks of len(i) rows (outer +, outer -, inner +, inner -): the
-    ends on i, on j, and whether the segment exists."""
-    x1, y1, r1 = xyr[i, 0], xyr[i, 1], xyr[i, 2]
-    dx, dy = xyr[j, 0] - x1, xyr[j, 1] - y1
-    d = np.hypot(dx, dy)
-    apart = d > np.abs(r1 - xyr[j, 2])
-    d = np.where(apart, d, 1.0)
-    vx, vy = dx / d, dy / d
-    ps, qs, oks = [], [], []
-    for r2 in (xyr[j, 2], -xyr[j, 2]):  # outer, then inner
-        c = (r1 - r2) / d
-        ok = apart & (c * c <= 1.0)
-        h = np.sqrt(np.maximum(0.0, 1.0 - c * c))
-        for sign in (1.0, -1.0):
-            nx, ny = vx * c - sign * h * vy, vy * c + sign * h * vx
-            ps.append(np.stack([x1 + r1 * nx, y1 + r1 * ny], axis=1))
-            qs.append(np.stack([xyr[j, 0] + r2 * nx, xyr[j, 1] + r2 * ny], axis=1))
-            oks.append(ok)
-    return np.concatenate(ps), np.concatenate(qs), np.concatenate(oks)
-
-
-def _arc_length(r: float, sweep: float) -> float:
-    """Length of the circumscribed polygon `_arc_polyline` drives for this sweep."""
-    if sweep <= 1e-12:
-        return 0.0
-    n = max(1, math.ceil(sweep / ARC_STEP))
-    return 2.0 * n * r * math.tan(sweep / n / 2.0)
-
-
-def _arc_polyline(c: _Rim, p: Point, q: Point, a0: float, sweep: float) -> Path:
-    """From p counter-clockwise by `sweep` to q, as a polygon circumscribed about the rim."""
-    if sweep <= 1e-12:
-        return (p, q)
-    n = max(1, math.ceil(sweep / ARC_STEP))
-    step = sweep / n
-    outer = c.r / math.cos(step / 2.0)
-    mids = tuple(
-        (
-            c.x + outer * math.cos(a0 + (k + 0.5) * step),
-            c.y + outer * math.sin(a0 + (k + 0.5) * step),
-        )
-        for k in range(n)
-    )
-    return (p, *mids, q)
 
 
 class TangentPlanner(ShortcutPlanner):
