@@ -22,7 +22,12 @@ class Recovery(RobotCore):
     # --- liveness, monitoring, adoption ---------------------------------------------------
     def heartbeat(self) -> None:
         pos, _ = self.position()
-        tasks = tuple(a.task_id for a in self.tasks_held())
+        cur = self.current
+        tasks = tuple(
+            [a.task_id for a in self.queue]
+            if cur is None
+            else [cur.task_id] + [a.task_id for a in self.queue]
+        )
         load = self.load()
         self.ctx.bus.publish(
             Heartbeat(
