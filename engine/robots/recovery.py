@@ -22,12 +22,7 @@ class Recovery(RobotCore):
     # --- liveness, monitoring, adoption ---------------------------------------------------
     def heartbeat(self) -> None:
         pos, _ = self.position()
-        cur = self.current
-        tasks = tuple(
-            [a.task_id for a in self.queue]
-            if cur is None
-            else [cur.task_id] + [a.task_id for a in self.queue]
-        )
+        tasks = tuple(a.task_id for a in self.tasks_held())
         load = self.load()
         self.ctx.bus.publish(
             Heartbeat(
