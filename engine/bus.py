@@ -47,6 +47,7 @@ class EmbeddedBus:
         self._rtypes: dict[str, str] = {}
         self._hears: dict[str, frozenset[str] | None] = {}
         self._audiences: dict[tuple[str, str], list[tuple[str, Handler]]] = {}
+        self._everyone: list[tuple[str, Handler]] = []
         self.published = 0
         self.lost = 0
         self._ideal = config.loss == 0.0 and config.latency_s == 0.0 and config.jitter_s == 0.0
@@ -60,6 +61,7 @@ class EmbeddedBus:
         self._rtypes[name] = rtype
         self._hears[name] = hears
         self._audiences.clear()
+        self._everyone = list(self._subscribers.items())  # a new list: never changed in place
 
     def _audience(self, msg: Announce) -> list[tuple[str, Handler]]:
         """Who an announcement reaches on the ideal bus, in subscription order: every robot
@@ -77,6 +79,11 @@ class EmbeddedBus:
                 or self._rtypes[name] == key[1]
             ]
         return out
+
+    def _everyone_now(self) -> list[tuple[str, Handler]]:
+        """Every subscriber, in subscription order: the list made at the last subscription
+        (replaced, never changed in place, so a delivery under way keeps its own)."""
+        return self._everyone
 
     def publish(self, msg: Message) -> None:
         self.published += 1
@@ -111,11 +118,10 @@ class EmbeddedBus:
             if handler is not None and to != msg.sender:
                 handler(msg)
             return
-        receivers = (
-            self._audience(msg) if isinstance(msg, Announce) else list(self._subscribers.items())
-        )
+        receivers = self._audience(msg) if isinstance(msg, Announce) else self._everyone_now()
+        sender = msg.sender
         for name, handler in receivers:
-            if name != msg.sender:
+            if name != sender:
                 handler(msg)
 
     def _publish_heartbeat(self, hb: Heartbeat) -> None:

@@ -34,9 +34,15 @@ class EventLog:
         self._subscribers.append(fn)
 
     def emit(self, kind: str, /, **data: Any) -> Event:
-        ev = Event(len(self.events), self._clock(), kind, data)
-        self.events.append(ev)
-        self.counts[kind] = self.counts.get(kind, 0) + 1
+        return self.append(kind, data)
+
+    def append(self, kind: str, data: dict[str, Any]) -> Event:
+        """`emit` with the payload already a dict (taken over, not copied)."""
+        events = self.events
+        ev = Event(len(events), self._clock(), kind, data)
+        events.append(ev)
+        counts = self.counts
+        counts[kind] = counts.get(kind, 0) + 1
         for fn in self._subscribers:
             fn(ev)
         return ev

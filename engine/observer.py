@@ -47,15 +47,18 @@ class Observer:
 
     def record_message(self, msg: Message) -> None:
         data = msg.to_dict()
-        self.log.emit("message", **data)
+        log = self.log
+        log.append("message", data)
         if data["type"] == "bid":
             self.bids += 1
-            self.log.emit(
+            log.append(
                 "bid",
-                auction_id=data["auction_id"],
-                bidder=data["bidder"],
-                utility=data["utility"],
-                round=data["round"],
+                {
+                    "auction_id": data["auction_id"],
+                    "bidder": data["bidder"],
+                    "utility": data["utility"],
+                    "round": data["round"],
+                },
             )
 
     def new_auction(

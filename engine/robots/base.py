@@ -227,7 +227,8 @@ class Robot(Bidder, Recovery):
             handler(self, msg)
 
     def _on_announce(self, msg: Announce) -> None:
-        if msg.task_id in self.completed:
+        task_id, aid = msg.task_id, msg.auction_id
+        if task_id in self.completed:
             # offered again from an old record (a watcher back from a failure that missed my
             # TaskDone): it is done, say so again and the auctioneer withdraws it
             self.ctx.bus.publish(
@@ -237,16 +238,17 @@ class Robot(Bidder, Recovery):
             )
             return
         cur = self.current
-        if (cur is not None and cur.task_id == msg.task_id) or any(
-            a.task_id == msg.task_id for a in self.queue
+        if (cur is not None and cur.task_id == task_id) or (
+            self.queue and any(a.task_id == task_id for a in self.queue)
         ):
             self.ctx.bus.publish(
                 Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
             )
             return
-        if msg.auction_id in self.rounds:  # a re-announcement: only the round is new
-            self.rounds[msg.auction_id] = msg.round
-            if msg.auction_id in self.open_auctions:
+        rounds = self.rounds
+        if aid in rounds:  # a re-announcement: only the round is new
+            rounds[aid] = msg.round
+            if aid in self.open_auctions:
                 self.consider_bids()
             return
         self.rounds[msg.auction_id] = msg.round

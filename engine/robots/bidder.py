@@ -121,15 +121,17 @@ class Bidder(RobotCore):
 
     def consider_bids(self) -> None:
         """Send the bids my policy asks for, given what I know (`engine/bidding.py`)."""
-        if not self.participating or self.capability is None:
-            return
-        auctions = self.auctions_in_order()
+        if not (self.alive and self.enabled and not self.leaving) or self.capability is None:
+            return  # (`participating`, spelled out: this runs for every announcement heard)
+        auctions = self._in_order
+        if auctions is None:
+            auctions = self.auctions_in_order()
         if not auctions:
             return
         policy = self.ctx.policy
         busy = not self.has_room()
         situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
-        every_round = self.ctx.scenario.protocol.busy_bid == "every_round"
+        every_round = self._every_round
         if busy and not every_round and policy.targets_pure and self._refused_all():
             # no room, and -inf said in every auction I know: no bid, whatever the targets
             self._bid_situation = situation

@@ -75,6 +75,7 @@ class RobotCore:
         self.motion: Motion | None = None
         self.partner = coalition_partner(name)  # Policy 2's pairing rule, fixed by the name
         self.house = AuctionHouse(name, ctx, self._on_allocated)
+        self._every_round = ctx.scenario.protocol.busy_bid == "every_round"
         self.current: Assignment | None = None
         self.queue: deque[Assignment] = deque()
         self._procs: list[Any] = []

@@ -5,7 +5,8 @@ random scenarios, policies, operator actions (failures, returns, newcomers, poli
 injected tasks) and buses (ideal, lossy, late):
 
 - an announcement reaches only the robots that can act on it (`EmbeddedBus._audience`),
-  not every robot;
+  not every robot; a broadcast goes down the list of subscribers made when the last one
+  subscribed (`EmbeddedBus._everyone_now`), not a copy made per message;
 - a busy robot that said -inf in every target skips the bidding rules
   (`engine.bidding.refused_all`);
 - the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
@@ -95,6 +96,7 @@ def test_shortcuts_change_nothing(seed, policy, bus, every_round, actions):
     fast = _play(scenario, seed, policy, plan)
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(EmbeddedBus, "_audience", lambda self, msg: list(self._subscribers.items()))
+        mp.setattr(EmbeddedBus, "_everyone_now", lambda self: list(self._subscribers.items()))
         mp.setattr(engine.robots.bidder, "refused_all", lambda sent, targets: False)
         mp.setattr(Liveness, "silent", _brute_silent)
         plain = _play(scenario, seed, policy, plan)
