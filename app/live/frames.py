@@ -19,8 +19,9 @@ Json = dict[str, Any]
 
 #: Robot fields that only say where a robot is; the others (state, load, alive, type) go whole.
 POSE = ("x", "y", "heading")
-#: The stream's precision: 1 cm and 1 mrad, so a moving robot costs ~22 bytes per frame.
-DIGITS = {"x": 2, "y": 2, "heading": 3}
+#: The stream's precision: 1 cm and 1 mrad, so a moving robot costs ~22 bytes per frame;
+#: a charge to the percent, so a draining battery sends its robot whole once per percent.
+DIGITS = {"x": 2, "y": 2, "heading": 3, "charge": 2}
 
 
 def rounded(robot: Json) -> Json:
@@ -211,8 +212,9 @@ class Pending:
         return m
 
 
-#: A robot's fields in a frame (the robot list and snapshots add task, path, … to these).
-FRAME_FIELDS = ("name", "type", "state", "x", "y", "heading", "load", "alive")
+#: A robot's fields in a frame (the robot list and snapshots add task, path, … to these);
+#: `charge` only with energy on (docs/model.md#energy).
+FRAME_FIELDS = ("name", "type", "state", "x", "y", "heading", "load", "alive", "charge")
 
 
 class Replica:

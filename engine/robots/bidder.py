@@ -121,11 +121,9 @@ class Bidder(RobotCore):
 
     def consider_bids(self) -> None:
         """Send the bids my policy asks for, given what I know (`engine/bidding.py`)."""
-        if not (self.alive and self.enabled and not self.leaving) or self.capability is None:
-            return  # (`participating`, spelled out: this runs for every announcement heard)
-        auctions = self._in_order
-        if auctions is None:
-            auctions = self.auctions_in_order()
+        if not self.participating or self.capability is None:
+            return
+        auctions = self.auctions_in_order()
         if not auctions:
             return
         policy = self.ctx.policy

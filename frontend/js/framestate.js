@@ -2,7 +2,7 @@
 // snapshot, then deltas applied in order. A delta that does not follow on from the last
 // one applied (`base` is not our `seq`) is refused: the caller asks for a full frame.
 
-const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
+const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive", "charge"];
 
 function decode(b64) {
   try {

@@ -7,6 +7,7 @@ import { LiveView } from "./live.js";
 import { ComparePage } from "./compare.js";
 import { SITE_COLOUR, glyph } from "./palette.js";
 import { loadPolicies } from "./policies.js";
+import { BATTERY_COLOUR } from "./maprobots.js";
 
 const missions = new MissionsPage();
 const live = new LiveView();
@@ -129,6 +130,15 @@ function legend() {
         ctx.stroke();
       }),
       "Policy 2 pair",
+    ),
+    item(
+      mark((ctx) => {
+        ctx.fillStyle = "#0d1117";
+        ctx.fillRect(0, 5, 14, 4);
+        ctx.fillStyle = BATTERY_COLOUR.low;
+        ctx.fillRect(0, 5, 6, 4);
+      }),
+      "charge (energy on)",
     ),
   );
 }

@@ -159,7 +159,7 @@ export function drawScene(ctx, mv, poses) {
   const robotLabels = drawRobots(ctx, mv, poses, P, s, now, labels);
   // robots' names first, then the sites' counts, none over another or over a glyph
   for (const [text, c, colour] of [...robotLabels, ...siteLabels]) labels.add(text, c, colour);
-  mv.drawn = { ...labels.draw(), order: robotLabels.order, batches: robotLabels.batches, onScreen: robotLabels.onScreen };
+  mv.drawn = { ...labels.draw(), order: robotLabels.order, batches: robotLabels.batches, onScreen: robotLabels.onScreen, batteries: robotLabels.batteries };
 }
 
 function drawScale(ctx, mv) {

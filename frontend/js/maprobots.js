@@ -8,6 +8,15 @@ export const WORKING = new Set(["digging", "loading", "unloading"]);
 /** Past this many robots on screen the map is "dense": glyphs are filled without an outline,
  * paths are solid, not dashed (dashes and outlines are most of a software canvas's work). */
 export const DENSE = 300;
+/** Battery bars (energy on): a charge below `LOW` is amber, below `CRITICAL` red. On a dense
+ * map only the red ones are drawn: those are the robots an operator must act on. */
+export const LOW = 0.5;
+export const CRITICAL = 0.2;
+export const BATTERY_COLOUR = { ok: "#3fb950", low: "#e3b341", critical: "#f85149" };
+
+function batteryLevel(charge) {
+  return charge < CRITICAL ? "critical" : charge < LOW ? "low" : "ok";
+}
 
 const SHORT = new Map(); // name -> short name (asked for every robot on every frame)
 export function shortName(name) {
@@ -135,7 +144,10 @@ export function drawRobots(ctx, mv, poses, P, s, now, labels) {
   const rings = new Path2D();
   const loads = new Path2D();
   const crosses = new Path2D();
+  const cells = new Path2D(); // battery bars' empty cases
+  const charges = { ok: new Path2D(), low: new Path2D(), critical: new Path2D() };
   const count = { scans: 0, rings: 0, loads: 0, crosses: 0 };
+  const batteries = { ok: 0, low: 0, critical: 0 };
   const names = [];
   const drawnNames = [];
   const lr = Math.max(2.5, r * 0.32);
@@ -166,6 +178,15 @@ export function drawRobots(ctx, mv, poses, P, s, now, labels) {
       loads.moveTo(x + lr, y);
       loads.arc(x, y, lr, 0, 2 * Math.PI);
       count.loads++;
+    }
+    if (rb.charge != null && !down) {
+      const level = batteryLevel(rb.charge);
+      if (!dense || level === "critical") {
+        const bw = 2 * r;
+        cells.rect(x - r, y + r + 3, bw, 3);
+        charges[level].rect(x - r, y + r + 3, Math.max(1, bw * Math.min(1, rb.charge)), 3);
+        batteries[level]++;
+      }
     }
     if (rb.state === "failed" || rb.alive === false) {
       crosses.moveTo(x - r, y - r);
@@ -208,6 +229,15 @@ export function drawRobots(ctx, mv, poses, P, s, now, labels) {
     ctx.lineWidth = 1;
     ctx.stroke(loads);
   }
+  if (batteries.ok + batteries.low + batteries.critical) {
+    ctx.fillStyle = "#0d1117";
+    ctx.fill(cells);
+    for (const level of ["ok", "low", "critical"]) {
+      if (!batteries[level]) continue;
+      ctx.fillStyle = BATTERY_COLOUR[level];
+      ctx.fill(charges[level]);
+    }
+  }
   if (count.crosses) {
     ctx.strokeStyle = FAILED_COLOUR;
     ctx.lineWidth = 3;
@@ -216,6 +246,7 @@ export function drawRobots(ctx, mv, poses, P, s, now, labels) {
   names.order = list.map((rb) => rb.name); // the drawing order, bottom to top
   names.batches = glyphs.size; // canvas paths used for the glyphs (for tests and the bench)
   names.onScreen = drawnNames.length;
+  names.batteries = batteries; // battery bars drawn, per level (for tests)
   return names;
 }
 
