@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import math
 from typing import TYPE_CHECKING, Any, cast
 
 import simpy
@@ -13,8 +11,8 @@ from engine.field import NEAR
 from engine.geometry import Point, dist, path_length
 from engine.messages import Close
 from engine.planning import PlanningError
-from engine.robots.base import Robot
 from engine.robots.core import Assignment
+from engine.robots.transport import TransportAuctioneer
 
 if TYPE_CHECKING:
     from engine.field import SiteState
@@ -39,7 +37,7 @@ def transports_due(
     return j - opened, (due if j < pile and due < dig_s else None)
 
 
-class Excavator(Robot):
+class Excavator(TransportAuctioneer):
     rtype = "excavator"
     capability = "excavate"
 
@@ -54,9 +52,7 @@ class Excavator(Robot):
         # transports auctioned ahead of their minerals (a lead policy), next mineral first
         self.ahead: list[str] = []
         self.early: dict[str, Hauler] = {}  # haulers that came for one of them and stand by
-        self._transport_serial = 0
         self.transfer_now_s = self.ctx.scenario.timing.transfer_s  # the transfer under way
-        self._back_at = -math.inf  # radio range: when I last came back from reporting in
 
     def load(self) -> int:
         return self.bucket
@@ -136,12 +132,6 @@ class Excavator(Robot):
             self._auction_ahead(site)
             yield self.env.timeout(took - first)
 
-    def _transport_id(self, kind: str) -> str:
-        """A task id never used before: `t` for a transport auctioned ahead, `r` for one
-        offered again for a full bucket."""
-        self._transport_serial += 1
-        return f"{self.name}#{kind}{self._transport_serial}"
-
     def _auction_ahead(self, site: SiteState | Point) -> None:
         where = site if isinstance(site, tuple) else (site.x, site.y)
         task_id = self._transport_id("t")
@@ -204,52 +194,6 @@ class Excavator(Robot):
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             self._arrival = None
 
-    # --- radio range: a transport nobody hears ------------------------------------------
-    def unheard(self, task_id: str) -> bool:
-        """Is this transport's auction open, unwon, for longer than two retry intervals,
-        while I am out of the base station's reach (so, likely, of every idle hauler)?"""
-        radio = self.ctx.radio
-        assert radio is not None
-        if task_id in self.house.allocations or radio.in_contact(self.name):
-            return False
-        proto = self.ctx.scenario.protocol
-        now = float(self.env.now)
-        if now - self._back_at <= 2 * proto.retry_s:
-            return False  # just back from reporting in: a hauler may be on its way
-        return any(
-            r.task_id == task_id and now - r.opened_at > 2 * proto.retry_s
-            for r in self.house.open_auctions.values()
-        )
-
-    def report_in(self, site: SiteState, task_id: str) -> Any:
-        """Drive into the base's reach with the full bucket until a hauler wins the
-        transport (or a few retry intervals pass), then back to the site: the winner waits
-        for me there."""
-        radio = self.ctx.radio
-        assert radio is not None
-        self.ctx.observer.emit("reporting_in", robot=self.name, task_id=task_id)
-        spot, back = radio.contact_point(self.pos), (site.x, site.y)
-        energy = self.ctx.energy
-        if energy is not None:
-            there_and_back = (dist(self.pos, spot) + dist(spot, back)) * energy.cfg.detour
-            if not energy.can_drive(self, there_and_back, back):
-                yield from self.recharge()  # bucket and all; then report in from the charger
-        self.state = "travelling"
-        with contextlib.suppress(PlanningError):
-            yield from self.go_to(spot)
-        proto = self.ctx.scenario.protocol
-        until = float(self.env.now) + 3 * proto.retry_s
-        self.state = "reporting"  # (not "waiting": a partner must not take this for a site)
-        while (
-            task_id not in self.house.allocations
-            and self._transport_open(task_id)
-            and self.env.now < until
-        ):
-            yield self.env.timeout(proto.bid_window_s)
-        self.state = "travelling"
-        yield from self.go_to(back)
-        self._back_at = float(self.env.now)
-
     def _drop_ahead(self) -> None:
         """Leaving the pile: transports not yet won are withdrawn (the won ones end void)."""
         for task_id in self.ahead:
@@ -295,14 +239,6 @@ class Excavator(Robot):
                 self._cancel_transport(task_id)
                 yield from self.transfer(hauler, site)
         self.waiting_for = None
-
-    def _transport_open(self, task_id: str) -> bool:
-        return any(r.task_id == task_id for r in self.house.open_auctions.values())
-
-    def _cancel_transport(self, task_id: str) -> None:
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == task_id:
-                self.house.cancel(rec.id)  # the partner came back before anyone won it
 
     def transfer(self, hauler: Hauler, site: SiteState) -> Any:
         self.state = "loading"
