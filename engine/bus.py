@@ -95,10 +95,14 @@ class EmbeddedBus:
             ev = self._env.timeout(0.0)
             ev.callbacks.append(lambda _e: self._deliver_ideal(msg))
             return
+        sender = msg.sender
+        self._send_lossy(msg, [(n, h) for n, h in self._subscribers.items() if n != sender])
+
+    def _send_lossy(self, msg: Message, receivers: list[tuple[str, Handler]]) -> None:
+        """Each receiver's copy is lost with the bus's probability or arrives after its own
+        latency and jitter (drawn in the receivers' order, from the bus's stream)."""
         cfg, rng, board = self._cfg, self._rng, self._liveness
-        for name, handler in list(self._subscribers.items()):
-            if name == msg.sender:
-                continue
+        for name, handler in receivers:
             if cfg.loss > 0.0 and rng.random() < cfg.loss:
                 self.lost += 1
                 continue

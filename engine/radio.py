@@ -220,23 +220,13 @@ class RangedBus(EmbeddedBus):
         if isinstance(msg, Heartbeat):
             self._ranged_heartbeat(msg, heard)
             return
-        cfg, rng, board = self._cfg, self._rng, self._liveness
+        cfg = self._cfg
         if cfg.loss == 0.0 and cfg.latency_s == 0.0 and cfg.jitter_s == 0.0:
             ev = self._env.timeout(0.0)
             ev.callbacks.append(lambda _e: self._deliver_now(msg, heard))
             return
-        for name in heard:
-            handler = self._subscribers.get(name)
-            if handler is None:
-                continue
-            if cfg.loss > 0.0 and rng.random() < cfg.loss:
-                self.lost += 1
-                continue
-            delay = cfg.latency_s + (cfg.jitter_s * rng.random() if cfg.jitter_s else 0.0)
-            ev = self._env.timeout(delay)
-            ev.callbacks.append(
-                lambda _e, n=name, h=handler: _deliver_one(board, n, h, msg, float(_e.env.now))
-            )
+        handlers = self._subscribers
+        self._send_lossy(msg, [(n, handlers[n]) for n in heard if n in handlers])
 
     def _deliver_now(self, msg: Message, heard: list[str]) -> None:
         t = float(self._env.now)
