@@ -10,6 +10,7 @@ own agents (`field.remote.PeerBody`), and runs it on simulation time = wall time
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import threading
@@ -99,7 +100,10 @@ class Agent:
         world = dataclasses.replace(generate_world(scenario, world_rng), sites=())
         self.env = simpy.Environment(initial_time=self.clock.now())
         ctx = FieldContext(
-            scenario, world, make_planner("ompl", world, plan_rng), self.env,
+            scenario,
+            world,
+            make_planner("ompl", world, plan_rng),
+            self.env,
             make_policy(spawn["policy"]),
         )
         ctx.report = self.report
@@ -119,9 +123,7 @@ class Agent:
         if rtype == "scout":
             routes = {
                 f"scout-{i + 1}": r
-                for i, r in enumerate(
-                    spiral_routes(world.grid, world.plant, scenario.team.scouts)
-                )
+                for i, r in enumerate(spiral_routes(world.grid, world.plant, scenario.team.scouts))
             }
             robot: Robot = Scout(name, ctx, pos, speed_mps, routes)
         else:
@@ -256,7 +258,5 @@ class Agent:
     def close(self) -> None:
         self.stopped.set()
         self.bus.close()
-        try:
+        with contextlib.suppress(Exception):  # the session may be gone already
             self.session.close()
-        except Exception:  # pragma: no cover
-            pass

@@ -98,7 +98,9 @@ class Fleet:
         self.session = open_session(listen=self.endpoint)
         self.recorder = Recorder()
         self._subs = [
-            self.session.declare_subscriber(messages_selector(self.mission), self.recorder.on_message),
+            self.session.declare_subscriber(
+                messages_selector(self.mission), self.recorder.on_message
+            ),
             self.session.declare_subscriber(
                 f"{PREFIX}/{self.mission}/event/*", self.recorder.on_report
             ),
@@ -117,8 +119,16 @@ class Fleet:
         rtype = name.rsplit("-", 1)[0]
         self._counts[rtype] = max(self._counts.get(rtype, 0), int(name.rsplit("-", 1)[1]))
         cmd = [
-            sys.executable, "-m", "app.cli", "agent",
-            "--name", name, "--mission", self.mission, "--connect", self.endpoint,
+            sys.executable,
+            "-m",
+            "app.cli",
+            "agent",
+            "--name",
+            name,
+            "--mission",
+            self.mission,
+            "--connect",
+            self.endpoint,
         ]
         popen = subprocess.Popen(  # its own process group: killed as a whole
             cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=None
@@ -151,7 +161,9 @@ class Fleet:
 
     def set_policy(self, policy: str) -> None:
         self.world.policy = policy
-        self.session.put(command_key(self.mission), encode_json({"cmd": "set_policy", "policy": policy}))
+        self.session.put(
+            command_key(self.mission), encode_json({"cmd": "set_policy", "policy": policy})
+        )
 
     def close(self) -> None:
         """Stop every agent (asked first, then SIGKILL to any group still there)."""
@@ -205,7 +217,7 @@ def run_fleet(
         while time.monotonic() - t_wall < limit:
             now = fleet.now()
             while plan and plan[0][0] <= now:
-                t, kind, arg = plan.pop(0)
+                _t, kind, arg = plan.pop(0)
                 if kind == "kill":
                     fleet.kill(arg)
                 elif kind == "add":

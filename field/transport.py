@@ -8,6 +8,7 @@ thread-safe; Zenoh calls back on its own threads).
 
 from __future__ import annotations
 
+import contextlib
 import heapq
 import itertools
 import json
@@ -193,7 +194,5 @@ class ZenohBus:
             self._handler(msg)
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(Exception):  # the session may be gone already
             self._sub.undeclare()
-        except Exception:  # pragma: no cover - the session may be gone already
-            pass

@@ -9,6 +9,7 @@ segment it just drove, or what pile lies where it stands.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import threading
@@ -153,7 +154,11 @@ class WorldService:
         if op == "site":
             return site_dict(self._site(a["id"]))
         if op == "sites_near":
-            p, q, r = (float(a["ax"]), float(a["ay"])), (float(a["bx"]), float(a["by"])), float(a["r"])
+            p, q, r = (
+                (float(a["ax"]), float(a["ay"])),
+                (float(a["bx"]), float(a["by"])),
+                float(a["r"]),
+            )
             r = min(r, self.scenario.scan_radius)  # a scout sees no farther than its scanner
             return [
                 site_dict(s)
@@ -238,10 +243,8 @@ class WorldService:
 
     def close(self) -> None:
         for decl in (self._queryable, self._events_pub):
-            try:
+            with contextlib.suppress(Exception):  # the session may be gone already
                 decl.undeclare()
-            except Exception:  # pragma: no cover - session already closed
-                pass
 
 
 def site_distance(s: dict[str, Any], p: tuple[float, float]) -> float:

@@ -91,7 +91,12 @@ def fleet_run(
     scen = _scenario(scenario)
     try:
         out = run_fleet(
-            scen, seed, pol, speed, _at("--kill", kill, "NAME"), adds,
+            scen,
+            seed,
+            pol,
+            speed,
+            _at("--kill", kill, "NAME"),
+            adds,
             _at("--restart", restart, "NAME"),
         )
     except ValueError as exc:
@@ -138,7 +143,9 @@ def _exit_on_sigterm() -> None:
 
 def register(cli: typer.Typer) -> None:
     cli.command(name="agent")(agent)
-    fleet = typer.Typer(help="Field missions on this machine (docs/field.md).", no_args_is_help=True)
+    fleet = typer.Typer(
+        help="Field missions on this machine (docs/field.md).", no_args_is_help=True
+    )
     fleet.command(name="run")(fleet_run)
     fleet.command(name="up")(fleet_up)
     cli.add_typer(fleet, name="fleet")
