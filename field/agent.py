@@ -46,6 +46,7 @@ log = logging.getLogger("regolith.field.agent")
 _CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hauler": Hauler}
 QUERY_TIMEOUT_S = 2.0
 """How long (wall) a query to the world service or a peer may take; past it, no answer."""
+MISSION_CONTROL_GONE_S = 10.0
 
 
 class AgentError(RuntimeError):
@@ -234,7 +235,19 @@ class Agent:
             log.debug("report failed: %s", exc)
 
     # --- the clock loop ---------------------------------------------------------------------
+    def _watch_mission_control(self) -> None:
+        """Leave when the world service has not answered for MISSION_CONTROL_GONE_S (mission
+        control ended or died): an agent never outlives its mission."""
+        last = time.monotonic()
+        while not self.stopped.wait(1.0):
+            if self._ask(world_key(self.mission), {"op": "status", "args": {}}) is not None:
+                last = time.monotonic()
+            elif time.monotonic() - last > MISSION_CONTROL_GONE_S:
+                log.warning("mission control is gone: leaving")
+                self.stopped.set()
+
     def run(self) -> None:
+        threading.Thread(target=self._watch_mission_control, daemon=True).start()
         env, clock, bus = self.env, self.clock, self.bus
         while not self.stopped.is_set():
             with self.lock:

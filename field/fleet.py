@@ -20,6 +20,7 @@ import uuid
 from dataclasses import dataclass, field
 from typing import Any
 
+from engine.messages import Heartbeat
 from engine.scenario import ROBOT_TYPES, Scenario
 from field.transport import open_session
 from field.wire import PREFIX, command_key, decode, decode_json, encode_json, messages_selector
@@ -49,6 +50,7 @@ class Recorder:
     malformed: int = 0
     by_type: dict[str, int] = field(default_factory=dict)
     events: list[dict[str, Any]] = field(default_factory=list)
+    heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
     auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -61,6 +63,8 @@ class Recorder:
             self.messages += 1
             kind = type(msg).__name__.lower()
             self.by_type[kind] = self.by_type.get(kind, 0) + 1
+            if isinstance(msg, Heartbeat):
+                self.heartbeats[msg.sender] = msg
 
     def on_report(self, sample: Any) -> None:
         data = decode_json(sample.payload.to_bytes())
