@@ -7,7 +7,6 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
-from field.fleet import free_port
 
 
 @pytest.mark.parametrize(
