@@ -195,8 +195,9 @@ class Agent:
         method, args = req["args"]["method"], list(req["args"].get("args") or [])
         if method not in CALLS or not hasattr(self.robot, method):
             return {"ok": False, "error": f"method: {method!r} is not served"}
-        stand_in = self.ctx.robots.get(caller["name"])
-        if not isinstance(stand_in, PeerBody):
+        known: Any = self.ctx.robots.get(caller["name"])
+        stand_in = known if isinstance(known, PeerBody) else None
+        if stand_in is None:
             stand_in = PeerBody(self, caller["name"], caller["rtype"])
             self.ctx.robots[caller["name"]] = stand_in  # type: ignore[assignment]
         stand_in.override = caller
@@ -272,4 +273,4 @@ class Agent:
         self.stopped.set()
         self.bus.close()
         with contextlib.suppress(Exception):  # the session may be gone already
-            self.session.close()
+            self.session.close()  # type: ignore[no-untyped-call]

@@ -135,7 +135,8 @@ class FieldMission:
         rtype = name.rsplit("-", 1)[0]
         if hb is None:
             x, y = self.fleet.world.starts.get(name, self.world.plant)
-            heading, state, load, path = 0.0, "idle", 0, ()
+            heading, state, load = 0.0, "idle", 0
+            path: tuple[tuple[float, float], ...] = ()
         else:
             speed = getattr(self.scenario.speeds, rtype)
             path = hb.path

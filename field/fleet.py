@@ -114,7 +114,7 @@ class Fleet:
         )
         self.procs: dict[str, Proc] = {}
         self.history: list[Proc] = []
-        self._counts = {t: 0 for t in ROBOT_TYPES}
+        self._counts: dict[str, int] = dict.fromkeys(ROBOT_TYPES, 0)
 
     def now(self) -> float:
         return self.world.clock.now()
@@ -184,10 +184,10 @@ class Fleet:
                 proc.popen.wait()
         for sub in self._subs:
             with contextlib.suppress(Exception):
-                sub.undeclare()
+                sub.undeclare()  # type: ignore[no-untyped-call]
         self.world.close()
         with contextlib.suppress(Exception):
-            self.session.close()
+            self.session.close()  # type: ignore[no-untyped-call]
 
     def __enter__(self) -> Fleet:
         return self

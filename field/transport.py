@@ -195,4 +195,4 @@ class ZenohBus:
 
     def close(self) -> None:
         with contextlib.suppress(Exception):  # the session may be gone already
-            self._sub.undeclare()
+            self._sub.undeclare()  # type: ignore[no-untyped-call]

@@ -40,7 +40,7 @@ class Envelope(BaseModel):
     """One protocol message on the wire."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
-    v: Literal[1]
+    v: Literal[1]  # VERSION
     type: str
     mission: Segment
     sender: Segment
@@ -88,7 +88,7 @@ def encode(mission: str, msg: Message, seq: int) -> tuple[str, bytes]:
     """The key and the payload of one protocol message."""
     body = msg.to_dict()
     msg_type = body.pop("type")
-    env = Envelope(v=VERSION, type=msg_type, mission=mission, sender=msg.sender, seq=seq, body=body)
+    env = Envelope(v=1, type=msg_type, mission=mission, sender=msg.sender, seq=seq, body=body)
     return message_key(mission, msg_type, msg.sender), env.model_dump_json().encode()
 
 

@@ -209,7 +209,7 @@ class WorldService:
 
     def _spawn(self, name: str) -> dict[str, Any]:
         rtype = name.rsplit("-", 1)[0]
-        if rtype not in ROBOT_TYPES or rtype == "operator":
+        if rtype not in ROBOT_TYPES:
             raise ValueError(f"name: {name!r} must be scout-N, excavator-N or hauler-N")
         times = self.spawned.get(name, 0)
         self.spawned[name] = times + 1
