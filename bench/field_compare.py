@@ -29,7 +29,10 @@ def main() -> int:
     scen = reference_scenario()
     diffs: list[float] = []
     print(f"policy {args.policy}, field runs at {args.speed:g}x")
-    print(f"{'seed':>4} {'simulated_s':>12} {'field_s':>10} {'diff_s':>8} {'rel':>7} {'wall_s':>7}")
+    print(
+        f"{'seed':>4} {'simulated_s':>12} {'field_s':>10} {'diff_s':>8} {'rel':>7} "
+        f"{'reann_sim':>9} {'reann_field':>11} {'wall_s':>7}"
+    )
     for seed in range(args.seeds):
         sim = run_mission(scen, seed, args.policy)
         fld = run_fleet(scen, seed, args.policy, args.speed)
@@ -40,7 +43,8 @@ def main() -> int:
         diffs.append(d / sim["makespan_s"])
         print(
             f"{seed:>4} {sim['makespan_s']:>12.1f} {fld['makespan_s']:>10.1f} {d:>+8.1f} "
-            f"{d / sim['makespan_s']:>+7.1%} {fld['wall_s']:>7.1f}",
+            f"{d / sim['makespan_s']:>+7.1%} {sim['reannouncements']:>9} "
+            f"{fld['reannouncements']:>11} {fld['wall_s']:>7.1f}",
             flush=True,
         )
     if len(diffs) >= 2:

@@ -252,6 +252,7 @@ def run_fleet(
                 "auctions": len(auctions),
                 "reauctions": sum(1 for a in auctions if a.get("reauction_of")),
                 "bids": sum(len(a.get("bids") or ()) for a in auctions),
+                "reannouncements": sum(a.get("reannouncements") or 0 for a in auctions),
                 "messages": rec.messages,
                 "failures": sum(1 for a in actions if a["kind"] == "kill"),
                 "actions": actions,
