@@ -30,7 +30,9 @@ def fleet() -> Iterator[Fleet]:
 
 
 def _holding(fleet: Fleet, robot: str) -> dict[str, Any] | None:
-    """An auction `robot` won whose task it has not ended yet."""
+    """An auction `robot` won in the last 10 s whose task it has not ended (a transport takes
+    far longer, so the kill cannot race its delivery)."""
+    now = fleet.now()
     rec = fleet.recorder
     with rec.lock:
         ended = {
@@ -41,7 +43,10 @@ def _holding(fleet: Fleet, robot: str) -> dict[str, Any] | None:
         won = [
             a
             for a in rec.auctions.values()
-            if a["allocated_to"] == robot and a["status"] == "closed" and a["task_id"] not in ended
+            if a["allocated_to"] == robot
+            and a["status"] == "closed"
+            and a["task_id"] not in ended
+            and now - (a["closed_at"] or 0.0) < 10.0
         ]
     return won[-1] if won else None
 
@@ -62,7 +67,7 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
             if held is not None:
                 fleet.kill("hauler-2")  # SIGKILL: nothing said, peers find out by its silence
                 killed = held
-        if added is None and now >= 700:
+        if added is None and now >= 500:
             added = fleet.add("excavator")
         time.sleep(0.02)
 
