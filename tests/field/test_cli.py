@@ -31,3 +31,28 @@ def test_agent_refuses_a_bad_name_and_a_missing_mission() -> None:
         cli, ["agent", "--name", "hauler/1", "--mission", "m", "--connect", "tcp/127.0.0.1:1"]
     )
     assert res.exit_code == 2 and "name: 'hauler/1' must be" in res.output
+
+
+@pytest.mark.parametrize(
+    ("policy", "speed", "paused", "loc"),
+    [
+        ("nearest", "max", False, "speed"),
+        ("nearest", 0.5, False, "speed"),
+        ("nearest", 20.0, True, "speed"),
+        ("central-greedy", 20.0, False, "policy"),
+        ("offline", 20.0, False, "policy"),
+    ],
+)
+def test_the_api_refuses_a_field_mission_it_cannot_run(
+    policy: str, speed: float | str, paused: bool, loc: str
+) -> None:
+    """`POST /api/missions` with `field: true` answers 422 naming the field, before any
+    process starts."""
+    from app.services.errors import Invalid
+    from app.services.missions import check_field
+    from engine.scenario import reference_scenario
+
+    with pytest.raises(Invalid) as err:
+        check_field(reference_scenario(), policy, speed, paused)  # type: ignore[arg-type]
+    assert err.value.loc == (loc,) and err.value.status_code == 422
+    check_field(reference_scenario(), "nearest", 20.0, False)  # what it accepts
