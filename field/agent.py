@@ -162,11 +162,19 @@ class Agent:
         raise AgentError(f"mission {self.mission!r}: no world service answered in 30 s")
 
     def ask_world(self, op: str, **args: Any) -> Any:
-        rep = self._ask(world_key(self.mission), {"op": op, "args": args})
-        if rep is None or not rep.get("ok"):
-            log.warning("world %s: no answer (%s)", op, None if rep is None else rep.get("error"))
-            return None
-        return rep["value"]
+        """Ground truth: asked again until the world service answers (a missing answer is
+        not a fact: a pile read as empty for want of a reply would be abandoned for good).
+        None only for a refused request, or once the agent is stopping."""
+        while True:
+            rep = self._ask(world_key(self.mission), {"op": op, "args": args})
+            if rep is not None:
+                if not rep.get("ok"):
+                    log.warning("world %s refused: %s", op, rep.get("error"))
+                    return None
+                return rep["value"]
+            log.warning("world %s: no answer yet, asking again", op)
+            if self.stopped.is_set():
+                return None
 
     def ask_body(self, name: str, op: str, **args: Any) -> Any:
         req = {"op": op, "args": args, "caller": look(self.robot)}

@@ -48,6 +48,7 @@ class RemoteSite:
         self._asker.ask_world("site_set", id=self.id, **{key: value})
 
     remaining = property(lambda s: s._get("remaining") or 0, lambda s, v: s._set("remaining", v))
+    # (None only when the agent is stopping: the world service is asked until it answers)
     worker = property(lambda s: s._get("worker"), lambda s, v: s._set("worker", v))
     last_worker = property(lambda s: s._get("last_worker"), lambda s, v: s._set("last_worker", v))
     found_at = property(lambda s: s._get("found_at"))

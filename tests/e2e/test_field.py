@@ -13,9 +13,17 @@ from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog, Server
 from tests.e2e.test_dashboard import Start, open_live, wait_for
+from tests.field.serial import one_field_mission_at_a_time
 
 
 def test_field_mission_on_the_dashboard(
+    page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
+) -> None:
+    with one_field_mission_at_a_time():
+        _field_mission_on_the_dashboard(page, console, start_mission, api, server)
+
+
+def _field_mission_on_the_dashboard(
     page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
 ) -> None:
     mission = start_mission(policy="nearest", seed=0, speed=50, field=True)
