@@ -73,7 +73,7 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
             if held is not None:
                 fleet.kill("hauler-2")  # SIGKILL: nothing said, peers find out by its silence
                 killed = held
-        if added is None and now >= 500:
+        if added is None and now >= 300:  # sites are still being found until ~1300 s
             added = fleet.add("excavator")
         time.sleep(0.02)
 
@@ -88,8 +88,9 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     again = [a for a in auctions if a["reauction_of"] == killed["id"]]
     assert again, f"{killed['task_id']} held by hauler-2 was never re-auctioned"
     assert all(a["allocated_to"] != "hauler-2" for a in again)
-    assert any(a["status"] == "closed" and a["allocated_to"] for a in again)
+    assert any(a["status"] == "closed" and a["allocated_to"] for a in again), again
     # the excavator that joined mid-mission won work
-    assert any(a["allocated_to"] == "excavator-5" for a in auctions)
+    won = {a["allocated_to"] for a in auctions if a["task_type"] == "excavate"}
+    assert "excavator-5" in won, f"excavation winners: {won}"
     # what mission control heard was valid: nothing malformed on the wire
     assert fleet.recorder.malformed == 0 and fleet.recorder.messages > 1000
