@@ -46,7 +46,7 @@ postgresql:
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/mypy engine
+	$(BIN)/mypy engine field
 	$(BIN)/lint-imports
 
 # Two workers (pytest-xdist): most of the suite waits on servers, browsers and PostgreSQL,

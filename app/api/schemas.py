@@ -59,6 +59,9 @@ class MissionCreate(_In):
     paused: Annotated[bool, Field(strict=True)] = False
     scenario: Scenario | None = None
     planner: Literal["ompl", "exact", "straight"] = "ompl"
+    # field mode (docs/field.md): every robot its own process on this machine, over Zenoh;
+    # `speed` is then fixed for the mission's life (a number >= 1, simulated s per wall s)
+    field: Annotated[bool, Field(strict=True)] = False
 
 
 class SpeedUpdate(_In):

@@ -30,6 +30,12 @@ try:
     _sweep.register(cli)
 except ImportError:  # pragma: no cover
     pass
+try:
+    from app.cli import field as _field
+
+    _field.register(cli)
+except ImportError:  # pragma: no cover - zenoh not installed
+    pass
 
 
 def main() -> None:

@@ -18,7 +18,7 @@ from app.live.hub import Hub, Viewer, encode
 from app.live.runner import LiveMission, MissionRunner, stream_state
 from app.services import queries
 from app.services.admission import Admission
-from app.services.errors import Conflict, LimitExceeded, NotFound
+from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.replay import revive
 from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
@@ -32,6 +32,21 @@ Speed = float | Literal["max"]
 def speed_value(speed: Speed) -> float | None:
     """API speed → runner speed (None is "max")."""
     return None if speed == "max" else float(speed)
+
+
+def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> None:
+    """What a field mission needs: a wall-clock speed, no pause, a decentralized policy and
+    none of the realism options (docs/field.md)."""
+    from engine.policies import POLICIES
+
+    if speed == "max" or float(speed) < 1 or paused:
+        raise Invalid("speed: a field mission runs at a fixed speed >= 1, unpaused", ("speed",))
+    if not POLICIES[policy].decentralized:
+        raise Invalid(
+            f"policy: {policy} is centralized; field mode runs decentralized ones", ("policy",)
+        )
+    if scenario.energy.enabled or scenario.docks.enabled or scenario.radio.enabled:
+        raise Invalid("scenario: field mode runs without the realism options", ("scenario",))
 
 
 @dataclass(frozen=True)
@@ -139,20 +154,35 @@ class MissionService:
         paused: bool,
         scenario: Scenario | None,
         planner: str,
+        field: bool = False,
     ) -> tuple[MissionRow, LiveState]:
         scenario = scenario or reference_scenario()
+        if field:
+            check_field(scenario, policy, speed, paused)
         check_size(self.settings, scenario)
         refusal = (
             f"{self.settings.max_running_missions} missions are already live; "
             "stop one or raise REGOLITH_MAX_RUNNING_MISSIONS"
         )
         with self.admission.place(refusal):
-            return await self._create(scenario, seed, policy, speed, paused, planner)
+            return await self._create(scenario, seed, policy, speed, paused, planner, field)
 
     async def _create(
-        self, scenario: Scenario, seed: int, policy: str, speed: Speed, paused: bool, planner: str
+        self,
+        scenario: Scenario,
+        seed: int,
+        policy: str,
+        speed: Speed,
+        paused: bool,
+        planner: str,
+        field: bool = False,
     ) -> tuple[MissionRow, LiveState]:
-        mission, world = await asyncio.to_thread(self._build, scenario, seed, policy, planner)
+        if field:
+            mission, world = await asyncio.to_thread(
+                self._build_field, scenario, seed, policy, speed_value(speed)
+            )
+        else:
+            mission, world = await asyncio.to_thread(self._build, scenario, seed, policy, planner)
         paused = paused or speed == 0
         rate = 1.0 if speed == 0 else speed_value(speed)
         try:
@@ -186,6 +216,16 @@ class MissionService:
         with self.gate:
             mission = Mission(scenario, seed, policy, planner=planner)  # type: ignore[arg-type]
             return mission, mission.world_map()
+
+    def _build_field(
+        self, scenario: Scenario, seed: int, policy: str, speed: float | None
+    ) -> tuple[Any, dict[str, Any]]:
+        """A field mission: the world service and one agent process per robot, started
+        here; the runner steps it like an engine mission (field/control.py)."""
+        from field.control import FieldMission
+
+        mission = FieldMission(scenario, seed, policy, float(speed or 20.0))
+        return mission, mission.world_map()
 
     # -- lifecycle ---------------------------------------------------------------------
 

@@ -33,6 +33,7 @@ async def create_mission(body: MissionCreate, missions: MissionsDep) -> MissionD
         paused=body.paused,
         scenario=body.scenario,
         planner=body.planner,
+        field=body.field,
     )
     return mission_detail(row, live, actions=[])
 

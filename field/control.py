@@ -1,0 +1,319 @@
+"""Mission control for a field mission: `FieldMission` is what the live service runs in place
+of an engine `Mission` (the same methods the runner, the recorder and the views call), built
+from what mission control hears on the mission's key space, not from an engine it steps.
+
+Events and auction records arrive from the agents and the world service; robots' poses come
+from their heartbeats (position, state, load and the route ahead, followed at the robot's
+speed between two heartbeats); the field's counters from the world service. Operator
+commands become processes (disable: SIGKILL; enable: the same name started again, a rejoin;
+add: a new process) or commands on the key space (policy switch).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from engine.errors import CommandRejected, UnknownRobotError
+from engine.events import Event
+from engine.geometry import point_along
+from engine.policies import resolve_policy
+from engine.scenario import Scenario
+from field.fleet import Fleet
+
+
+class RecordView:
+    """An auction as mission control last heard of it (`AuctionRecord`'s reading side)."""
+
+    def __init__(self, records: dict[str, dict[str, Any]], auction_id: str) -> None:
+        self._records, self.id = records, auction_id
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self._records[self.id])
+
+    @property
+    def status(self) -> str:
+        return str(self._records[self.id]["status"])
+
+    @property
+    def reannouncements(self) -> int:
+        return int(self._records[self.id].get("reannouncements") or 0)
+
+
+class FieldMission:
+    """A field mission as the live service sees it (duck-types `engine.Mission`)."""
+
+    def __init__(self, scenario: Scenario, seed: int, policy: str | int, speed: float) -> None:
+        self.scenario, self.seed = scenario, seed
+        self.initial_policy = resolve_policy(policy)
+        self.fleet = Fleet(scenario, seed, self.initial_policy, speed)
+        self.world = self.fleet.world.world
+        self.events: list[Event] = []
+        self.auctions: list[RecordView] = []
+        self.actions: list[dict[str, Any]] = []
+        self.status = "running"
+        self._subscribers: list[Callable[[Event], None]] = []
+        self._seen_events = 0
+        self._seen_auctions: set[str] = set()
+        self._closed = False
+        self._lock = threading.Lock()
+        self.fleet.up()
+
+    # --- what the runner reads --------------------------------------------------------------
+    @property
+    def now(self) -> float:
+        f = self.fleet.world.field
+        return float(f.finished_at) if f.finished_at is not None else self.fleet.now()
+
+    @property
+    def done(self) -> bool:
+        return self.status != "running"
+
+    @property
+    def policy(self) -> str:
+        return self.fleet.world.policy
+
+    def subscribe(self, fn: Callable[[Event], None]) -> None:
+        self._subscribers.append(fn)
+
+    def advance(self, until: float) -> None:
+        """Take in what was heard since the last call (the agents run on their own clocks)."""
+        if self.done:
+            return
+        self._take_in()
+        if self.fleet.world.field.finished.triggered:
+            self._end("completed")
+        elif self.fleet.now() >= self.scenario.max_time_s:
+            self._end("timeout")
+
+    def _emit(self, t: float, kind: str, data: dict[str, Any]) -> None:
+        ev = Event(len(self.events), float(t), kind, data)
+        self.events.append(ev)
+        for fn in self._subscribers:
+            fn(ev)
+
+    def _take_in(self) -> None:
+        rec = self.fleet.recorder
+        with rec.lock:
+            fresh = rec.events[self._seen_events :]
+            self._seen_events = len(rec.events)
+            new_ids = [a for a in rec.auctions if a not in self._seen_auctions]
+        for aid in new_ids:
+            self._seen_auctions.add(aid)
+            self.auctions.append(RecordView(rec.auctions, aid))
+        for e in fresh:
+            data = dict(e.get("data") or {})
+            if e.get("by") not in (None, "world"):
+                data.setdefault("robot", e["by"])
+            self._emit(float(e.get("t", self.now)), str(e.get("event")), data)
+
+    def _end(self, status: str) -> None:
+        self.status = status
+        self._emit(self.now, "mission_ended", {"status": status, "makespan_s": self._makespan()})
+        self.close()
+
+    def _makespan(self) -> float | None:
+        return self.fleet.world.field.finished_at
+
+    def close(self) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        self.fleet.close()
+
+    # --- views ------------------------------------------------------------------------------
+    def world_map(self) -> dict[str, Any]:
+        return self.world.to_dict()
+
+    def _robot(self, name: str, full: bool) -> dict[str, Any]:
+        hb = self.fleet.recorder.heartbeats.get(name)
+        proc = self.fleet.procs.get(name)
+        alive = proc is not None and proc.popen.poll() is None
+        rtype = name.rsplit("-", 1)[0]
+        if hb is None:
+            x, y = self.fleet.world.starts.get(name, self.world.plant)
+            heading, state, load = 0.0, "idle", 0
+            path: tuple[tuple[float, float], ...] = ()
+        else:
+            speed = getattr(self.scenario.speeds, rtype)
+            path = hb.path
+            if len(path) >= 2 and alive:
+                (x, y), heading = point_along(list(path), max(0.0, (self.now - hb.t) * speed))
+            else:
+                x, y, heading = hb.x, hb.y, 0.0
+            state, load = hb.state, hb.load
+        d: dict[str, Any] = {
+            "name": name,
+            "type": rtype,
+            "state": state if alive else "failed",
+            "x": x,
+            "y": y,
+            "heading": heading,
+            "load": load,
+            "alive": alive,
+        }
+        if full:
+            d.update(
+                task=None,
+                distance=0.0,
+                path=[[p[0], p[1]] for p in path],
+                enabled=alive,
+                partner=None,
+            )
+        return d
+
+    def _names(self) -> list[str]:
+        return list(self.fleet.procs)
+
+    def counters(self) -> dict[str, Any]:
+        f = self.fleet.world.field
+        recs = [a.to_dict() for a in self.auctions]
+        return {
+            "sites_found": f.sites_found,
+            "sites_total": len(f.sites),
+            "minerals_delivered": f.delivered,
+            "minerals_total": f.minerals_total,
+            "auctions": len(recs),
+            "bids": sum(len(a.get("bids") or ()) for a in recs),
+            "declines": sum(
+                1 for a in recs for w in a.get("awards") or () if w["outcome"] == "declined"
+            ),
+            "reannouncements": sum(a.get("reannouncements") or 0 for a in recs),
+            "messages": self.fleet.recorder.messages,
+        }
+
+    def frame(self) -> dict[str, Any]:
+        f = self.fleet.world.field
+        return {
+            "t": self.now,
+            "status": self.status,
+            "policy": self.policy,
+            "robots": [self._robot(n, False) for n in self._names()],
+            "scanned": f.scanned_b64(),
+            "scanned_count": f.scanned_count,
+            "counters": self.counters(),
+        }
+
+    def robot_list(self) -> list[dict[str, Any]]:
+        return [self._robot(n, True) for n in self._names()]
+
+    def snapshot(self) -> dict[str, Any]:
+        f = self.fleet.world.field
+        return {
+            "t": self.now,
+            "status": self.status,
+            "policy": self.policy,
+            "scenario": self.scenario.name,
+            "seed": self.seed,
+            "robots": self.robot_list(),
+            "sites": [
+                {
+                    "id": s.id,
+                    "x": s.x,
+                    "y": s.y,
+                    "found": s.found_at is not None,
+                    "found_at": s.found_at,
+                    "remaining": s.remaining,
+                    "total": s.total,
+                    "excavator": s.worker,
+                }
+                for s in f.sites
+            ],
+            "dropped": [{"x": g.x, "y": g.y} for g in f.ground],
+            "scanned": f.scanned_b64(),
+            "scanned_count": f.scanned_count,
+            "cells_total": len(f.scanned),
+            "auctions": [a.to_dict() for a in self.auctions if a.status == "open"],
+            "counters": self.counters(),
+        }
+
+    def metrics(self) -> dict[str, Any]:
+        f = self.fleet.world.field
+        return {
+            "policy": self.initial_policy,
+            "seed": self.seed,
+            "scenario": self.scenario.name,
+            "status": self.status,
+            "completed": self.status == "completed",
+            "makespan_s": f.finished_at,
+            "sim_time_s": self.now,
+            **{k: v for k, v in self.counters().items() if k != "minerals_delivered"},
+            "minerals_delivered": f.delivered,
+            "reauctions": sum(1 for a in self.auctions if a.to_dict().get("reauction_of")),
+            "failures": sum(1 for a in self.actions if a["kind"] == "disable_robot"),
+            "policy_changes": sum(1 for a in self.actions if a["kind"] == "set_policy"),
+            "field": True,
+            "processes": len(self.fleet.history),
+            "transport": {"kind": "zenoh", "endpoint": self.fleet.endpoint},
+        }
+
+    # --- operator commands ------------------------------------------------------------------
+    def _check_running(self) -> None:
+        self.advance(self.now)
+        if self.done:
+            raise CommandRejected(f"mission has ended ({self.status})")
+
+    def _record(self, kind: str, **args: Any) -> None:
+        self.actions.append({"t": self.now, "kind": kind, "args": args})
+
+    def set_policy(self, policy: str | int) -> str:
+        self._check_running()
+        try:
+            name = resolve_policy(policy)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
+        self._record("set_policy", policy=name)
+        old = self.policy
+        self.fleet.set_policy(name)
+        self._emit(self.now, "policy_changed", {"old": old, "new": name})
+        return name
+
+    def disable_robot(self, name: str, mode: str = "graceful") -> None:
+        """Field mode has one way to stop a robot: its process is SIGKILLed (abrupt)."""
+        self._check_running()
+        proc = self.fleet.procs.get(name)
+        if proc is None:
+            raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
+        if proc.popen.poll() is not None:
+            raise CommandRejected(f"robot {name!r} is already failed")
+        self._record("disable_robot", name=name, mode="abrupt")
+        self.fleet.kill(name)
+        self._emit(self.now, "robot_failed", {"robot": name})
+
+    def enable_robot(self, name: str) -> None:
+        self._check_running()
+        proc = self.fleet.procs.get(name)
+        if proc is None:
+            raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
+        if proc.popen.poll() is None:
+            raise CommandRejected(f"robot {name!r} is not disabled")
+        self._record("enable_robot", name=name)
+        self.fleet.spawn(name)
+        self._emit(self.now, "robot_enabled", {"robot": name})
+
+    def add_robot(self, rtype: str, position: tuple[float, float] | None = None) -> str:
+        self._check_running()
+        if position is not None:
+            raise CommandRejected("position: a field robot starts beside the plant")
+        try:
+            name = self.fleet.add(rtype)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
+        self._record("add_robot", type=rtype, position=None)
+        self._emit(self.now, "robot_added", {"robot": name, "type": rtype})
+        return name
+
+    def inject_task(self, task_type: str = "excavate", location: Any = ()) -> str:
+        raise CommandRejected("inject_task: not available in field mode (no operator robot)")
+
+    def robot(self, name: str) -> Any:
+        if name not in self.fleet.procs:
+            raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
+        return self._robot(name, True)
+
+
+def is_finite(x: float | None) -> bool:
+    return x is not None and math.isfinite(x)

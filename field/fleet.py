@@ -1,0 +1,282 @@
+"""Mission control's side of a field mission on this machine: the world service, a recorder of
+everything said on the mission's key space, one agent process per robot, and the faults
+(`--kill NAME@T`: SIGKILL; `--add TYPE@T`: a new process; `--restart NAME@T`: a rejoin).
+
+Every agent runs in its own process group, and `Fleet.close` (also on error) kills every group
+still alive, so no agent outlives its fleet.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from dataclasses import dataclass, field
+from typing import Any
+
+from engine.messages import Heartbeat
+from engine.scenario import ROBOT_TYPES, Scenario
+from field.transport import open_session
+from field.wire import PREFIX, command_key, decode, decode_json, encode_json, messages_selector
+from field.world_service import WorldService
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@dataclass
+class Proc:
+    name: str
+    popen: subprocess.Popen[bytes]
+    started_at: float
+    killed_at: float | None = None
+
+
+@dataclass
+class Recorder:
+    """Everything mission control hears: protocol messages (validated, counted), events and
+    auction records (the latest version of each auction)."""
+
+    messages: int = 0
+    malformed: int = 0
+    by_type: dict[str, int] = field(default_factory=dict)
+    events: list[dict[str, Any]] = field(default_factory=list)
+    heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
+    auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def on_message(self, sample: Any) -> None:
+        msg = decode(sample.payload.to_bytes())
+        with self.lock:
+            if msg is None:
+                self.malformed += 1
+                return
+            self.messages += 1
+            kind = type(msg).__name__.lower()
+            self.by_type[kind] = self.by_type.get(kind, 0) + 1
+            if isinstance(msg, Heartbeat):
+                self.heartbeats[msg.sender] = msg
+
+    def on_report(self, sample: Any) -> None:
+        data = decode_json(sample.payload.to_bytes())
+        if data is None:
+            return
+        with self.lock:
+            if data.get("kind") == "auction" and isinstance(data.get("record"), dict):
+                rec = data["record"]
+                self.auctions[str(rec.get("id"))] = rec
+            elif data.get("kind") == "event":
+                self.events.append(data)
+
+    def on_world_event(self, data: dict[str, Any]) -> None:
+        with self.lock:
+            self.events.append(data)
+
+
+class Fleet:
+    def __init__(
+        self,
+        scenario: Scenario,
+        seed: int,
+        policy: str,
+        speed: float,
+        port: int | None = None,
+        mission: str | None = None,
+        listen_host: str = "127.0.0.1",
+    ) -> None:
+        if scenario.energy.enabled or scenario.docks.enabled or scenario.radio.enabled:
+            raise ValueError("scenario: field mode runs without the realism options")
+        self.mission = mission or f"m{uuid.uuid4().hex[:10]}"
+        self.port = port or free_port()
+        self.endpoint = f"tcp/{listen_host}:{self.port}"
+        self.speed = speed
+        self.session = open_session(listen=self.endpoint)
+        self.recorder = Recorder()
+        self._subs = [
+            self.session.declare_subscriber(
+                messages_selector(self.mission), self.recorder.on_message
+            ),
+            self.session.declare_subscriber(
+                f"{PREFIX}/{self.mission}/event/*", self.recorder.on_report
+            ),
+        ]
+        self.world = WorldService(
+            self.session, self.mission, scenario, seed, policy, speed, self.recorder.on_world_event
+        )
+        self.procs: dict[str, Proc] = {}
+        self.history: list[Proc] = []
+        self._counts: dict[str, int] = dict.fromkeys(ROBOT_TYPES, 0)
+
+    def now(self) -> float:
+        return self.world.clock.now()
+
+    def spawn(self, name: str) -> Proc:
+        rtype = name.rsplit("-", 1)[0]
+        self._counts[rtype] = max(self._counts.get(rtype, 0), int(name.rsplit("-", 1)[1]))
+        cmd = [
+            sys.executable,
+            "-m",
+            "app.cli",
+            "agent",
+            "--name",
+            name,
+            "--mission",
+            self.mission,
+            "--connect",
+            self.endpoint,
+        ]
+        popen = subprocess.Popen(  # its own process group: killed as a whole
+            cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=None
+        )
+        proc = Proc(name, popen, self.now())
+        self.procs[name] = proc
+        self.history.append(proc)
+        return proc
+
+    def up(self) -> None:
+        for name in self.world.roster:
+            self.spawn(name)
+
+    def add(self, rtype: str) -> str:
+        if rtype not in ROBOT_TYPES:
+            raise ValueError(f"type: must be one of {', '.join(ROBOT_TYPES)}")
+        name = f"{rtype}-{self._counts[rtype] + 1}"
+        self.spawn(name)
+        return name
+
+    def kill(self, name: str) -> None:
+        """SIGKILL: an abrupt failure, nothing said to anyone."""
+        proc = self.procs.get(name)
+        if proc is None or proc.popen.poll() is not None:
+            raise ValueError(f"name: no running agent {name!r}")
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.popen.pid, signal.SIGKILL)
+        proc.popen.wait()
+        proc.killed_at = self.now()
+
+    def set_policy(self, policy: str) -> None:
+        self.world.policy = policy
+        self.session.put(
+            command_key(self.mission), encode_json({"cmd": "set_policy", "policy": policy})
+        )
+
+    def close(self) -> None:
+        """Stop every agent (asked first, then SIGKILL to any group still there)."""
+        with contextlib.suppress(Exception):
+            self.session.put(command_key(self.mission), encode_json({"cmd": "stop"}))
+        deadline = time.monotonic() + 3.0
+        for proc in self.history:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                proc.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
+        for proc in self.history:
+            if proc.popen.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(proc.popen.pid, signal.SIGKILL)
+                proc.popen.wait()
+        for sub in self._subs:
+            with contextlib.suppress(Exception):
+                sub.undeclare()  # type: ignore[no-untyped-call]
+        self.world.close()
+        with contextlib.suppress(Exception):
+            self.session.close()  # type: ignore[no-untyped-call]
+
+    def __enter__(self) -> Fleet:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def run_fleet(
+    scenario: Scenario,
+    seed: int,
+    policy: str,
+    speed: float,
+    kills: list[tuple[str, float]] = (),  # type: ignore[assignment]
+    adds: list[tuple[str, float]] = (),  # type: ignore[assignment]
+    restarts: list[tuple[str, float]] = (),  # type: ignore[assignment]
+    wall_limit_s: float | None = None,
+) -> dict[str, Any]:
+    """Run one field mission end to end on this machine and return its figures."""
+    t_wall = time.monotonic()
+    plan = sorted(
+        [(t, "kill", n) for n, t in kills]
+        + [(t, "add", r) for r, t in adds]
+        + [(t, "restart", n) for n, t in restarts]
+    )
+    limit = wall_limit_s or (scenario.stall_timeout_s * 2 / speed + 120.0)
+    with Fleet(scenario, seed, policy, speed) as fleet:
+        fleet.up()
+        actions: list[dict[str, Any]] = []
+        status = "timeout"
+        while time.monotonic() - t_wall < limit:
+            now = fleet.now()
+            while plan and plan[0][0] <= now:
+                _t, kind, arg = plan.pop(0)
+                if kind == "kill":
+                    fleet.kill(arg)
+                elif kind == "add":
+                    arg = fleet.add(arg)
+                else:
+                    fleet.spawn(arg)
+                actions.append({"t": now, "kind": kind, "robot": arg})
+            if fleet.world.field.finished.triggered:
+                status = "completed"
+                break
+            time.sleep(0.02)
+        st = fleet.world.status()
+        rec = fleet.recorder
+        with rec.lock:
+            auctions = list(rec.auctions.values())
+            out = {
+                "policy": fleet.world.policy,
+                "seed": seed,
+                "scenario": scenario.name,
+                "status": status,
+                "completed": status == "completed",
+                "makespan_s": st["finished_at"],
+                "sim_time_s": st["t"],
+                "minerals_total": st["minerals_total"],
+                "minerals_delivered": st["delivered"],
+                "sites_found": st["sites_found"],
+                "sites_total": st["sites_total"],
+                "auctions": len(auctions),
+                "reauctions": sum(1 for a in auctions if a.get("reauction_of")),
+                "bids": sum(len(a.get("bids") or ()) for a in auctions),
+                "reannouncements": sum(a.get("reannouncements") or 0 for a in auctions),
+                "messages": rec.messages,
+                "failures": sum(1 for a in actions if a["kind"] == "kill"),
+                "actions": actions,
+                "auction_records": auctions,
+                "wall_s": time.monotonic() - t_wall,
+            }
+        out["processes"] = [
+            {
+                "name": p.name,
+                "pid": p.popen.pid,
+                "started_at": p.started_at,
+                "killed_at": p.killed_at,
+            }
+            for p in fleet.history
+        ]
+        out["transport"] = {
+            "kind": "zenoh",
+            "mode": "peer",
+            "endpoint": fleet.endpoint,
+            "mission": fleet.mission,
+            "speed": speed,
+            "messages": rec.messages,
+            "malformed": rec.malformed,
+            "by_type": dict(sorted(rec.by_type.items())),
+            "world_queries": fleet.world.queries,
+        }
+    return out

@@ -1,0 +1,198 @@
+"""The Zenoh side of field mode: opening a peer session, the fault injector, and the bus.
+
+`ZenohBus` implements the engine's `Bus` interface (`engine.bus.Bus`) for the one robot an
+agent process runs: `publish` puts the message on the network, and what arrives from the
+network waits in an inbox until the agent's clock loop hands it to the robot (robots are not
+thread-safe; Zenoh calls back on its own threads).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import heapq
+import itertools
+import json
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import zenoh
+
+from engine.liveness import Liveness
+from engine.messages import Heartbeat, Message
+from field.wire import decode, encode, messages_selector
+
+log = logging.getLogger("regolith.field.transport")
+Handler = Callable[[Message], None]
+
+
+def open_session(listen: str | None = None, connect: str | None = None) -> zenoh.Session:
+    """A peer-mode session (no router daemon): listen on an endpoint, connect to one, or
+    both. Multicast scouting is off, so sessions meet only where they are told to."""
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"peer"')
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    if listen:
+        conf.insert_json5("listen/endpoints", json.dumps([listen]))
+    if connect:
+        conf.insert_json5("connect/endpoints", json.dumps([connect]))
+    return zenoh.open(conf)
+
+
+@dataclass
+class Faults:
+    """Loss and latency injected around publishers and subscribers (tests, fault studies),
+    on top of whatever the network does. Drawn from its own seeded generator."""
+
+    loss: float = 0.0
+    latency_s: float = 0.0  # wall seconds
+    jitter_s: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.loss <= 0.9:
+            raise ValueError("loss: must lie in 0..0.9")
+        if self.latency_s < 0 or self.jitter_s < 0:
+            raise ValueError("latency and jitter: must be >= 0")
+        self._rng = np.random.default_rng(self.seed)
+        self._lock = threading.Lock()
+        self.dropped = 0
+
+    def draw(self) -> float | None:
+        """None: this message is lost; else its extra delay in wall seconds."""
+        with self._lock:
+            if self.loss and self._rng.random() < self.loss:
+                self.dropped += 1
+                return None
+            return self.latency_s + (self.jitter_s * self._rng.random() if self.jitter_s else 0.0)
+
+
+class Inbox:
+    """Messages heard from the network, each due at a wall time (now, or later under an
+    injected latency); thread-safe. `ready` is set whenever something arrives."""
+
+    def __init__(self) -> None:
+        self._heap: list[tuple[float, int, Message]] = []
+        self._serial = itertools.count()
+        self._lock = threading.Lock()
+        self.ready = threading.Event()
+
+    def put(self, msg: Message, delay_s: float = 0.0) -> None:
+        with self._lock:
+            heapq.heappush(self._heap, (time.monotonic() + delay_s, next(self._serial), msg))
+        self.ready.set()
+
+    def due(self) -> list[Message]:
+        now = time.monotonic()
+        out: list[Message] = []
+        with self._lock:
+            while self._heap and self._heap[0][0] <= now:
+                out.append(heapq.heappop(self._heap)[2])
+        return out
+
+    def next_due_in(self) -> float | None:
+        with self._lock:
+            return None if not self._heap else max(0.0, self._heap[0][0] - time.monotonic())
+
+
+class ZenohBus:
+    """The engine's `Bus` over Zenoh, for one robot (the agent's)."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        mission: str,
+        liveness: Liveness,
+        on_unknown_peer: Callable[[Message], None] | None = None,
+        faults: Faults | None = None,
+    ) -> None:
+        self._session = session
+        self._mission = mission
+        self._liveness = liveness
+        self._faults = faults
+        self._on_unknown_peer = on_unknown_peer
+        self.inbox = Inbox()
+        self.name = ""
+        self._handler: Handler | None = None
+        self._seq = itertools.count()
+        self._publishers: dict[str, Any] = {}
+        self.published = 0
+        self.received = 0
+        self.lost = 0  # by the injector; the network's own losses are not seen
+        self._sub = session.declare_subscriber(messages_selector(mission), self._on_sample)
+
+    # --- the engine's Bus interface ------------------------------------------------------
+    def subscribe(
+        self, name: str, handler: Handler, rtype: str = "", hears: frozenset[str] | None = None
+    ) -> None:
+        self.name, self._handler = name, handler
+
+    def publish(self, msg: Message) -> None:
+        key, payload = encode(self._mission, msg, next(self._seq))
+        self.published += 1
+        if self._faults is not None:
+            delay = self._faults.draw()
+            if delay is None:
+                self.lost += 1
+                return
+            if delay > 0:
+                t = threading.Timer(delay, self._put, (key, payload))
+                t.daemon = True
+                t.start()
+                return
+        self._put(key, payload)
+
+    def _put(self, key: str, payload: bytes) -> None:
+        pub = self._publishers.get(key)
+        if pub is None:
+            pub = self._publishers[key] = self._session.declare_publisher(key)
+        try:
+            pub.put(payload)
+        except Exception as exc:  # a closed session at shutdown: nothing to deliver to
+            log.debug("put on %s failed: %s", key, exc)
+
+    # --- receiving ------------------------------------------------------------------------
+    def _on_sample(self, sample: Any) -> None:
+        """Zenoh's thread: validate, then queue for the clock loop (never raises)."""
+        try:
+            msg = decode(sample.payload.to_bytes(), self._mission)
+        except Exception:  # pragma: no cover - decode logs and returns None by design
+            log.exception("dropped a message that could not be decoded")
+            return
+        if msg is None or msg.sender == self.name:
+            return
+        delay = 0.0
+        if self._faults is not None:
+            drawn = self._faults.draw()
+            if drawn is None:
+                self.lost += 1
+                return
+            delay = drawn
+        self.inbox.put(msg, delay)
+
+    def deliver(self, msg: Message, now: float) -> None:
+        """The clock loop's thread: the robot hears `msg` at simulation time `now`."""
+        board, me = self._liveness, self.name
+        self.received += 1
+        if msg.sender not in board.index:
+            board.add(msg.sender)
+            if self._on_unknown_peer is not None:
+                self._on_unknown_peer(msg)
+        if isinstance(msg, Heartbeat):
+            serial = board.record_heartbeat(msg)
+            board.deliver_heartbeat(msg.sender, serial, np.array([board.index[me]]), now)
+            return  # heartbeats feed the liveness board only, as on the embedded bus
+        board.heard_from(me, msg.sender, now)
+        to = msg.addressee()
+        if to is not None and to != me:
+            return
+        if self._handler is not None:
+            self._handler(msg)
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):  # the session may be gone already
+            self._sub.undeclare()  # type: ignore[no-untyped-call]

@@ -1,0 +1,143 @@
+"""The wire format and the key space of field mode (docs/field.md).
+
+Every protocol message travels as one JSON object, an `Envelope`:
+
+    {"v": 1, "type": "<message type>", "mission": "<id>", "sender": "<robot>",
+     "seq": <int>, "body": {...the engine message's fields...}}
+
+under the key `regolith/<mission>/msg/<type>/<sender>`. `decode` validates the envelope and
+then the body against the engine's own message model (`engine.messages`); anything else (not
+JSON, another version, an unknown type, a missing or extra field, a body whose sender is not
+the envelope's) is logged and dropped: a robot never crashes on what it hears.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import re
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from engine.messages import ALL_MESSAGES, Bid, Message
+
+log = logging.getLogger("regolith.field.wire")
+
+VERSION = 1
+"""The wire format's version; a receiver drops envelopes of any other version."""
+
+PREFIX = "regolith"
+MESSAGE_TYPES: dict[str, type[Message]] = {cls.__name__.lower(): cls for cls in ALL_MESSAGES}
+"""Every protocol message the engine's robots exchange, by its wire name."""
+
+_SEGMENT = re.compile(r"^[A-Za-z0-9_.\-]{1,64}$")
+Segment = Annotated[str, Field(pattern=_SEGMENT.pattern)]
+
+
+class Envelope(BaseModel):
+    """One protocol message on the wire."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    v: Literal[1]  # VERSION
+    type: str
+    mission: Segment
+    sender: Segment
+    seq: Annotated[int, Field(ge=0)]
+    body: dict[str, Any]
+
+
+def check_segment(value: str, what: str) -> str:
+    """A mission id or robot name must be one key segment (no '/', '*', '$', spaces)."""
+    if not _SEGMENT.match(value):
+        raise ValueError(f"{what}: {value!r} must be 1-64 letters, digits, '_', '.' or '-'")
+    return value
+
+
+def message_key(mission: str, msg_type: str, sender: str) -> str:
+    return f"{PREFIX}/{mission}/msg/{msg_type}/{sender}"
+
+
+def messages_selector(mission: str) -> str:
+    """Every protocol message of a mission."""
+    return f"{PREFIX}/{mission}/msg/**"
+
+
+def event_key(mission: str, sender: str) -> str:
+    """What a robot or the world service reports to mission control (not read by robots)."""
+    return f"{PREFIX}/{mission}/event/{sender}"
+
+
+def world_key(mission: str) -> str:
+    """The world service's queryable: ground truth, one operation per query."""
+    return f"{PREFIX}/{mission}/world"
+
+
+def body_key(mission: str, name: str) -> str:
+    """A robot's physical body: what a robot standing beside it can see and do with it."""
+    return f"{PREFIX}/{mission}/body/{name}"
+
+
+def command_key(mission: str) -> str:
+    """Operator commands from mission control to the agents."""
+    return f"{PREFIX}/{mission}/command"
+
+
+def encode(mission: str, msg: Message, seq: int) -> tuple[str, bytes]:
+    """The key and the payload of one protocol message."""
+    body = msg.to_dict()
+    msg_type = body.pop("type")
+    env = Envelope(v=1, type=msg_type, mission=mission, sender=msg.sender, seq=seq, body=body)
+    return message_key(mission, msg_type, msg.sender), env.model_dump_json().encode()
+
+
+def decode(payload: bytes, mission: str | None = None) -> Message | None:
+    """The engine message a payload carries, or None (logged) if it is not a valid one."""
+    try:
+        raw = json.loads(payload)
+        env = Envelope.model_validate(raw)
+    except (ValueError, TypeError, ValidationError, RecursionError) as exc:
+        log.warning("dropped a malformed message: %s", _short(exc))
+        return None
+    if mission is not None and env.mission != mission:
+        log.warning("dropped a message of mission %r (this is %r)", env.mission, mission)
+        return None
+    cls = MESSAGE_TYPES.get(env.type)
+    if cls is None:
+        log.warning("dropped a message of unknown type %r from %s", env.type, env.sender)
+        return None
+    body = dict(env.body)
+    if cls is Bid and body.get("utility", 0.0) is None:
+        body["utility"] = -math.inf  # JSON has no infinity: 'busy' travels as null
+    try:
+        msg = cls.model_validate(body)
+    except ValidationError as exc:
+        log.warning("dropped an invalid %s from %s: %s", env.type, env.sender, _short(exc))
+        return None
+    if msg.sender != env.sender:
+        log.warning("dropped a %s whose sender %r is not the envelope's", env.type, msg.sender)
+        return None
+    return msg
+
+
+def encode_json(data: dict[str, Any]) -> bytes:
+    """Queries, replies, events and commands: one versioned JSON object each."""
+    return json.dumps({"v": VERSION, **data}, separators=(",", ":")).encode()
+
+
+def decode_json(payload: bytes) -> dict[str, Any] | None:
+    """A query, reply, event or command, or None (logged) if malformed or of another version."""
+    try:
+        data = json.loads(payload)
+    except (ValueError, TypeError, RecursionError) as exc:
+        log.warning("dropped a malformed payload: %s", _short(exc))
+        return None
+    if not isinstance(data, dict) or data.get("v") != VERSION:
+        log.warning("dropped a payload that is not a version-%d object", VERSION)
+        return None
+    return data
+
+
+def _short(exc: BaseException) -> str:
+    return str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__

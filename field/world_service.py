@@ -1,0 +1,251 @@
+"""The world service: the field's ground truth, served to the robots over Zenoh queries.
+
+Mission control runs it. It holds the engine's own `Field` (the sites and their piles, the
+minerals on the ground, the scanned cells, the deliveries) on a clock of wall time × speed,
+and answers one operation per query on `regolith/<mission>/world` (docs/field.md lists
+them). A robot learns of a site only by asking what lies within its scan radius along the
+segment it just drove, or what pile lies where it stands.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import simpy
+
+from engine.field import Field, SiteState
+from engine.geometry import dist, first_entry
+from engine.observer import Observer
+from engine.policies import resolve_policy
+from engine.scenario import ROBOT_TYPES, Scenario
+from engine.world import World, generate_world
+from field.wire import decode_json, encode_json, event_key, world_key
+
+log = logging.getLogger("regolith.field.world")
+
+
+class MissionClock:
+    """Simulation time = (wall time - epoch) × speed: every process of a mission agrees on it
+    (on one machine exactly; across machines as well as their clocks agree)."""
+
+    def __init__(self, epoch: float, speed: float) -> None:
+        self.epoch, self.speed = epoch, speed
+
+    def now(self) -> float:
+        return max(0.0, (time.time() - self.epoch) * self.speed)
+
+
+class _FieldEnv:
+    """What `engine.field.Field` reads of its environment: the time and an event factory."""
+
+    def __init__(self, clock: MissionClock) -> None:
+        self._clock = clock
+        self._env = simpy.Environment()
+
+    @property
+    def now(self) -> float:
+        return self._clock.now()
+
+    def event(self) -> simpy.Event:
+        return self._env.event()
+
+
+def start_positions(world: World, spread: float, n: int) -> list[tuple[float, float]]:
+    """The ring around the plant the team starts on (as `Mission._start_positions`)."""
+    px, py = world.plant
+    out = []
+    for i in range(n):
+        a = 2 * math.pi * i / max(1, n)
+        x = min(max(px + spread * math.cos(a), 0.0), world.width)
+        y = min(max(py + spread * math.sin(a), 0.0), world.height)
+        out.append((round(x, 6), round(y, 6)))
+    return out
+
+
+def site_dict(s: SiteState) -> dict[str, Any]:
+    return {
+        "id": s.id,
+        "x": s.x,
+        "y": s.y,
+        "total": s.total,
+        "remaining": s.remaining,
+        "found_at": s.found_at,
+        "worker": s.worker,
+        "last_worker": s.last_worker,
+    }
+
+
+class WorldService:
+    def __init__(
+        self,
+        session: Any,
+        mission: str,
+        scenario: Scenario,
+        seed: int,
+        policy: str,
+        speed: float,
+        on_event: Callable[[dict[str, Any]], None] | None = None,
+    ) -> None:
+        self.mission, self.scenario, self.seed, self.speed = mission, scenario, seed, speed
+        self.policy = resolve_policy(policy)
+        world_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(4)[0])
+        self.world = generate_world(scenario, world_rng)
+        self.clock = MissionClock(time.time(), speed)
+        self.observer = Observer(self.clock.now)
+        self.field = Field(self.world, _FieldEnv(self.clock), self.observer)  # type: ignore[arg-type]
+        team = scenario.team
+        names = [
+            f"{rtype}-{i + 1}"
+            for rtype, n in (
+                ("scout", team.scouts),
+                ("excavator", team.excavators),
+                ("hauler", team.haulers),
+            )
+            for i in range(n)
+        ]
+        starts = start_positions(self.world, scenario.start_spread, len(names))
+        self.roster: dict[str, str] = {n: n.rsplit("-", 1)[0] for n in names}
+        self.starts = dict(zip(names, starts, strict=True))
+        self.spawned: dict[str, int] = {}
+        self.queries = 0
+        self._lock = threading.Lock()
+        self._session = session
+        self._on_event = on_event
+        self._events_pub = session.declare_publisher(event_key(mission, "world"))
+        self.observer.log.subscribe(self._publish_event)
+        self._queryable = session.declare_queryable(world_key(mission), self._on_query)
+
+    def _publish_event(self, ev: Any) -> None:
+        data = {"kind": "event", "t": ev.t, "event": ev.kind, "data": ev.data, "by": "world"}
+        if self._on_event is not None:
+            self._on_event(data)
+        self._events_pub.put(encode_json(data))
+
+    def _on_query(self, query: Any) -> None:
+        payload = query.payload.to_bytes() if query.payload is not None else b""
+        req = decode_json(payload)
+        try:
+            if req is None or not isinstance(req.get("op"), str):
+                reply: dict[str, Any] = {"ok": False, "error": "malformed request"}
+            else:
+                with self._lock:
+                    self.queries += 1
+                    reply = {"ok": True, "value": self.handle(req["op"], req.get("args") or {})}
+        except (KeyError, TypeError, ValueError) as exc:
+            log.warning("world query refused: %s", exc)
+            reply = {"ok": False, "error": str(exc)[:200]}
+        query.reply(query.key_expr, encode_json(reply))
+
+    # --- the operations -------------------------------------------------------------------
+    def handle(self, op: str, a: dict[str, Any]) -> Any:
+        f = self.field
+        if op == "spawn":
+            return self._spawn(str(a["name"]))
+        if op == "site_at":
+            s = f.site_at((float(a["x"]), float(a["y"])))
+            return None if s is None else site_dict(s)
+        if op == "site":
+            return site_dict(self._site(a["id"]))
+        if op == "sites_near":
+            p, q, r = (
+                (float(a["ax"]), float(a["ay"])),
+                (float(a["bx"]), float(a["by"])),
+                float(a["r"]),
+            )
+            r = min(r, self.scenario.scan_radius)  # a scout sees no farther than its scanner
+            return [
+                site_dict(s)
+                for s in f.sites_near(p, q, r)
+                if first_entry(p, q, (s.x, s.y), r) is not None
+            ]
+        if op == "site_set":
+            s = self._site(a["id"])
+            for key in ("remaining", "worker", "last_worker"):
+                if key in a:
+                    setattr(s, key, a[key])
+            if "remaining" in a:
+                self.observer.progress_at = self.clock.now()
+            return site_dict(s)
+        if op == "found":
+            f.note_site_found(self._site(a["id"]), str(a["by"]))
+            return None
+        if op == "scan":
+            f.mark_scanned(int(a["cell"]))
+            return None
+        if op == "ground":
+            return [self._ground_dict(g) for g in f.ground]
+        if op == "drop":
+            f.drop_mineral((float(a["x"]), float(a["y"])), str(a["by"]))
+            return None
+        if op == "pick":
+            g = next((g for g in f.ground if g.id == a["id"]), None)
+            if g is None:
+                return False
+            f.pick_ground(g, str(a["by"]))
+            return True
+        if op == "deliver":
+            f.note_delivery(str(a["by"]))
+            return None
+        if op == "status":
+            return self.status()
+        raise ValueError(f"op: unknown operation {op!r}")
+
+    def _site(self, site_id: Any) -> SiteState:
+        for s in self.field.sites:
+            if s.id == site_id:
+                return s
+        raise ValueError(f"id: no site {site_id!r}")
+
+    @staticmethod
+    def _ground_dict(g: Any) -> dict[str, Any]:
+        return {"id": g.id, "x": g.x, "y": g.y, "dropped_at": g.dropped_at}
+
+    def _spawn(self, name: str) -> dict[str, Any]:
+        rtype = name.rsplit("-", 1)[0]
+        if rtype not in ROBOT_TYPES:
+            raise ValueError(f"name: {name!r} must be scout-N, excavator-N or hauler-N")
+        times = self.spawned.get(name, 0)
+        self.spawned[name] = times + 1
+        pos = self.starts.get(name) or start_positions(self.world, self.scenario.start_spread, 1)[0]
+        return {
+            "rtype": rtype,
+            "pos": list(pos),
+            "roster": self.roster,
+            "joined_late": name not in self.roster or times > 0,
+            "scenario": self.scenario.model_dump(mode="json"),
+            "seed": self.seed,
+            "policy": self.policy,
+            "epoch": self.clock.epoch,
+            "speed": self.speed,
+        }
+
+    def status(self) -> dict[str, Any]:
+        f = self.field
+        return {
+            "t": self.clock.now(),
+            "delivered": f.delivered,
+            "minerals_total": f.minerals_total,
+            "sites_found": f.sites_found,
+            "sites_total": len(f.sites),
+            "ground": len(f.ground),
+            "sites_remaining": sum(s.remaining for s in f.sites),
+            "scanned": f.scanned_count,
+            "finished": f.finished.triggered,
+            "finished_at": f.finished_at,
+        }
+
+    def close(self) -> None:
+        for decl in (self._queryable, self._events_pub):
+            with contextlib.suppress(Exception):  # the session may be gone already
+                decl.undeclare()
+
+
+def site_distance(s: dict[str, Any], p: tuple[float, float]) -> float:
+    return dist((s["x"], s["y"]), p)

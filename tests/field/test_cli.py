@@ -1,0 +1,58 @@
+"""`regolith fleet run` and `regolith agent`: bad input is one line and exit code 2, and no
+agent process is started for it."""
+
+from __future__ import annotations
+
+import pytest
+from typer.testing import CliRunner
+
+from app.cli import cli
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["fleet", "run", "--policy", "central-greedy"], "--policy: central-greedy is centralized"),
+        (["fleet", "run", "--policy", "9"], "--policy"),
+        (["fleet", "run", "--policy", "3", "--kill", "hauler-2"], "--kill: 'hauler-2' must be"),
+        (["fleet", "run", "--policy", "3", "--add", "rover@5"], "--add: 'rover' must be one of"),
+        (["fleet", "run", "--policy", "3", "--speed", "0.5"], "--speed"),
+    ],
+)
+def test_fleet_run_refuses_bad_input(args: list[str], message: str) -> None:
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 2, res.output
+    assert message in res.output
+    assert "Traceback" not in res.output and len(res.output.strip().splitlines()) == 1
+
+
+def test_agent_refuses_a_bad_name_and_a_missing_mission() -> None:
+    res = CliRunner().invoke(
+        cli, ["agent", "--name", "hauler/1", "--mission", "m", "--connect", "tcp/127.0.0.1:1"]
+    )
+    assert res.exit_code == 2 and "name: 'hauler/1' must be" in res.output
+
+
+@pytest.mark.parametrize(
+    ("policy", "speed", "paused", "loc"),
+    [
+        ("nearest", "max", False, "speed"),
+        ("nearest", 0.5, False, "speed"),
+        ("nearest", 20.0, True, "speed"),
+        ("central-greedy", 20.0, False, "policy"),
+        ("offline", 20.0, False, "policy"),
+    ],
+)
+def test_the_api_refuses_a_field_mission_it_cannot_run(
+    policy: str, speed: float | str, paused: bool, loc: str
+) -> None:
+    """`POST /api/missions` with `field: true` answers 422 naming the field, before any
+    process starts."""
+    from app.services.errors import Invalid
+    from app.services.missions import check_field
+    from engine.scenario import reference_scenario
+
+    with pytest.raises(Invalid) as err:
+        check_field(reference_scenario(), policy, speed, paused)  # type: ignore[arg-type]
+    assert err.value.loc == (loc,) and err.value.status_code == 422
+    check_field(reference_scenario(), "nearest", 20.0, False)  # what it accepts

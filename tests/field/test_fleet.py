@@ -1,0 +1,96 @@
+"""A field mission end to end: mission control and twelve agent processes on 127.0.0.1, the
+reference mission at 100× to completion; one hauler SIGKILLed while it holds a task, a new
+excavator process started mid-mission. Checked on what mission control recorded."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from engine.scenario import reference_scenario
+from field.fleet import Fleet
+from tests.field.serial import one_field_mission_at_a_time
+
+SPEED = 100.0
+WALL_LIMIT_S = 240.0  # a loaded machine slows a real-time mission; ~35 s when it is not
+
+
+@pytest.fixture
+def fleet() -> Iterator[Fleet]:
+    with one_field_mission_at_a_time():
+        yield from _fleet()
+
+
+def _fleet() -> Iterator[Fleet]:
+    f = Fleet(reference_scenario(), 0, "nearest", SPEED)
+    try:
+        yield f
+    finally:
+        f.close()  # every agent's process group, also when the test fails
+        for p in f.history:
+            assert p.popen.poll() is not None, f"{p.name} outlived its fleet"
+
+
+def _holding(fleet: Fleet, robot: str) -> dict[str, Any] | None:
+    """An auction `robot` won in the last 10 s whose task it has not ended (a transport takes
+    far longer, so the kill cannot race its delivery)."""
+    now = fleet.now()
+    rec = fleet.recorder
+    with rec.lock:
+        ended = {
+            e["data"].get("task_id")
+            for e in rec.events
+            if e.get("event") == "task_ended" and e["data"].get("robot") == robot
+        }
+        won = [
+            a
+            for a in rec.auctions.values()
+            if a["allocated_to"] == robot
+            and a["status"] == "closed"
+            and a["task_id"] not in ended
+            and now - (a["closed_at"] or 0.0) < 10.0
+        ]
+    return won[-1] if won else None
+
+
+@pytest.mark.slow
+def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> None:
+    fleet.up()
+    pids = {p.name: p.popen.pid for p in fleet.history}
+    assert len(pids) == 12 and len(set(pids.values())) == 12 and os.getpid() not in pids.values()
+    t0 = time.monotonic()
+    killed: dict[str, Any] | None = None
+    added = None
+    while not fleet.world.field.finished.triggered:
+        assert time.monotonic() - t0 < WALL_LIMIT_S, f"not finished: {fleet.world.status()}"
+        now = fleet.now()
+        if killed is None and now >= 400:
+            held = _holding(fleet, "hauler-2")
+            if held is not None:
+                fleet.kill("hauler-2")  # SIGKILL: nothing said, peers find out by its silence
+                killed = held
+        if added is None and now >= 300:  # sites are still being found until ~1300 s
+            added = fleet.add("excavator")
+        time.sleep(0.02)
+
+    status = fleet.world.status()
+    assert status["delivered"] == status["minerals_total"] == 64
+    assert status["sites_found"] == status["sites_total"] == 10
+    assert status["ground"] == 0 and status["sites_remaining"] == 0
+    assert killed is not None and added == "excavator-5"
+    time.sleep(0.3)  # the last records in flight
+    auctions = list(fleet.recorder.auctions.values())
+    # the killed hauler's task was auctioned again, and someone else carried it
+    again = [a for a in auctions if a["reauction_of"] == killed["id"]]
+    assert again, f"{killed['task_id']} held by hauler-2 was never re-auctioned"
+    assert all(a["allocated_to"] != "hauler-2" for a in again)
+    assert any(a["status"] == "closed" and a["allocated_to"] for a in again), again
+    # the excavator that joined mid-mission won work
+    won = {a["allocated_to"] for a in auctions if a["task_type"] == "excavate"}
+    assert "excavator-5" in won, f"excavation winners: {won}"
+    # what mission control heard was valid: nothing malformed on the wire
+    assert fleet.recorder.malformed == 0 and fleet.recorder.messages > 1000
