@@ -53,8 +53,12 @@ lint: $(STAMP)
 # and each worker has its own (free ports, its own temporary folders and cluster).
 TEST_WORKERS ?= 2
 
+# Field missions (tests marked `fleet`: twelve agent processes each, at 50-100x wall-clock
+# speed) run after the rest, alone on the machine: starved of CPU, their robots would miss
+# timeouts that are a few wall milliseconds long.
 test: $(STAMP) browser postgresql lint
-	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist worksteal
+	$(BIN)/pytest -q -n $(TEST_WORKERS) --dist worksteal -m "not fleet"
+	$(BIN)/pytest -q -m fleet
 
 format: $(STAMP)
 	$(BIN)/ruff format .

@@ -1,6 +1,9 @@
 """A field mission (every robot its own process over Zenoh) on the dashboard, like a simulated
-one: twelve robots on the map moving, counters rising, an operator SIGKILL shown as a failed
-robot, and, once it completes, its auctions stored in the same tables (docs/field.md)."""
+one: twelve robots on the map moving, counters rising, an operator SIGKILL of a hauler that
+holds a transport shown as a failed robot, a new excavator process joining; and, once it
+completes with every mineral delivered, its auctions in the database's tables: the killed
+hauler's transport re-auctioned to another, the new excavator winning excavations
+(docs/field.md)."""
 
 from __future__ import annotations
 
@@ -9,6 +12,7 @@ import time
 from pathlib import Path
 
 import httpx
+import pytest
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog, Server
@@ -16,6 +20,7 @@ from tests.e2e.test_dashboard import Start, open_live, wait_for
 from tests.field.serial import one_field_mission_at_a_time
 
 
+@pytest.mark.fleet
 def test_field_mission_on_the_dashboard(
     page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
 ) -> None:
@@ -35,25 +40,48 @@ def _field_mission_on_the_dashboard(
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
 
-    res = api.post(f"/missions/{mid}/robots/hauler-3/disable", json={"mode": "abrupt"})
+    # SIGKILL a hauler just after it won a transport: the task it held must be re-auctioned
+    won = wait_for(  # won in the last 20 simulated seconds: still driving to its excavator
+        page,
+        """window.__regolith.auctions.find(a => a.kind === 'excavator_hauler'
+            && a.status === 'closed' && a.allocated_to && !a.reauction_of
+            && window.__regolith.stream.t - a.closed_at < 20)""",
+        timeout=30,
+    )
+    victim = won["allocated_to"]
+    res = api.post(f"/missions/{mid}/robots/{victim}/disable", json={"mode": "abrupt"})
     assert res.status_code == 200, res.text
     wait_for(
         page,
-        "window.__regolith.robots.some(r => r.name === 'hauler-3' && r.alive === false)",
+        f"window.__regolith.robots.some(r => r.name === '{victim}' && r.alive === false)",
         timeout=30,
     )
-    wait_for(page, "window.__regolith.auctions.length >= 10", timeout=30)
+    # a new excavator joins (a new agent process) and must win work
+    res = api.post(f"/missions/{mid}/robots", json={"type": "excavator"})
+    assert res.status_code in (200, 201), res.text
+    newcomer = res.json()["name"]
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=30_000)
+    expect(page.locator("#live-status")).to_have_text("completed", timeout=150_000)
     assert console.errors == []
 
-    assert api.post(f"/missions/{mid}/stop").status_code in (200, 204, 409)
-    wait_for(page, "window.__regolith.status !== 'running'", timeout=30)
-    # what mission control recorded is in the same tables as a simulated mission's
-    auctions = api.get(f"/missions/{mid}/auctions", params={"limit": 500}).json()
-    items = auctions["items"] if isinstance(auctions, dict) else auctions
-    assert len(items) >= 10 and all(a["policy"] == "nearest" for a in items)
-    assert any(a["allocated_to"] and a["allocated_to"].startswith("hauler-") for a in items)
-    events = api.get(f"/missions/{mid}/events", params={"kind": "delivered"}).json()
-    assert events["items"] if isinstance(events, dict) else events
+    # what mission control recorded is in the database, in the same tables as a simulated
+    # mission's: every mineral delivered, the victim's transports re-auctioned to others,
+    # the newcomer's excavations
+    record = api.get(f"/missions/{mid}").json()
+    assert record["metrics"]["minerals_delivered"] == record["metrics"]["minerals_total"]
+    items = api.get(f"/missions/{mid}/auctions", params={"limit": 500}).json()["items"]
+    assert all(a["policy"] == "nearest" for a in items)
+    held = {a["id"] for a in items if a["allocated_to"] == victim}
+    again = [a for a in items if a["reauction_of"] in held]
+    assert any(a["status"] == "closed" and a["allocated_to"] != victim for a in again), (
+        victim,
+        sorted(held),
+        [(a["id"], a["reauction_of"], a["status"], a["allocated_to"]) for a in again],
+    )
+    assert any(
+        a["task_type"] == "excavate" and a["allocated_to"] == newcomer and a["status"] == "closed"
+        for a in items
+    ), (newcomer, [(a["id"], a["allocated_to"]) for a in items if a["task_type"] == "excavate"])
     # the agents' processes are gone once the mission has ended
     deadline = time.monotonic() + 15
     assert server.proc is not None

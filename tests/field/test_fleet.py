@@ -58,6 +58,7 @@ def _holding(fleet: Fleet, robot: str) -> dict[str, Any] | None:
 
 
 @pytest.mark.slow
+@pytest.mark.fleet
 def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> None:
     fleet.up()
     pids = {p.name: p.popen.pid for p in fleet.history}
