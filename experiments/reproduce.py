@@ -180,6 +180,9 @@ def write_results(out: Path, results: Path = RESULTS) -> None:
         if exp.grid:
             summary = json.loads((dest / "summary.json").read_text())
             (dest / "summary.json").write_text(json.dumps(trim_grid(summary), indent=1) + "\n")
+        elif exp.scenario:
+            summary = json.loads((dest / "summary.json").read_text())
+            (dest / "summary.json").write_text(json.dumps(trim_metrics(summary), indent=1) + "\n")
     builds = sorted(
         {json.loads((out / e.name / "sweep.json").read_text())["engine"] for e in EXPERIMENTS}
     )
@@ -207,6 +210,17 @@ def trim_grid(summary: dict[str, Any]) -> dict[str, Any]:
         metrics = pt["summary"]["metrics"]
         pt["summary"]["metrics"] = {k: v for k, v in metrics.items() if k in GRID_METRICS}
     summary["trimmed"] = f"each point's metrics cut to {', '.join(GRID_METRICS)}"
+    return summary
+
+
+REALISM_METRICS = ("makespan_s", "minerals_delivered")
+
+
+def trim_metrics(summary: dict[str, Any]) -> dict[str, Any]:
+    """A realism sweep's summary.json with its metrics cut to those the docs cite (the full
+    one is ~1.5 MB; runs.csv beside it has every run, and the blocks read that)."""
+    summary["metrics"] = {k: v for k, v in summary["metrics"].items() if k in REALISM_METRICS}
+    summary["trimmed"] = f"metrics cut to {', '.join(REALISM_METRICS)}"
     return summary
 
 
