@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import base64
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -115,6 +115,29 @@ class Field:
     def scanned_b64(self) -> str:
         bits = np.packbits(np.frombuffer(bytes(self.scanned), dtype=np.uint8), bitorder="little")
         return base64.b64encode(bits.tobytes()).decode("ascii")
+
+    def picture(self) -> dict[str, Any]:
+        """What a snapshot shows of the field: the sites, the minerals on the ground and the
+        scanned cells (the engine's views and field mode's mission control both send it)."""
+        return {
+            "sites": [
+                {
+                    "id": s.id,
+                    "x": s.x,
+                    "y": s.y,
+                    "found": s.found_at is not None,
+                    "found_at": s.found_at,
+                    "remaining": s.remaining,
+                    "total": s.total,
+                    "excavator": s.worker,
+                }
+                for s in self.sites
+            ],
+            "dropped": [{"x": g.x, "y": g.y} for g in self.ground],
+            "scanned": self.scanned_b64(),
+            "scanned_count": self.scanned_count,
+            "cells_total": len(self.scanned),
+        }
 
     def note_site_found(self, site: SiteState, by: str) -> None:
         if site.found_at is None:

@@ -138,23 +138,7 @@ class MissionViews:
             "scenario": self.scenario.name,
             "seed": self.seed,
             "robots": self.robot_list(),
-            "sites": [
-                {
-                    "id": s.id,
-                    "x": s.x,
-                    "y": s.y,
-                    "found": s.found_at is not None,
-                    "found_at": s.found_at,
-                    "remaining": s.remaining,
-                    "total": s.total,
-                    "excavator": s.worker,
-                }
-                for s in field.sites
-            ],
-            "dropped": [{"x": g.x, "y": g.y} for g in field.ground],
-            "scanned": field.scanned_b64(),
-            "scanned_count": field.scanned_count,
-            "cells_total": len(field.scanned),
+            **field.picture(),
             "auctions": [a.to_dict() for a in obs.auctions if a.status == "open"],
             "counters": self.counters(),
         }

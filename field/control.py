@@ -209,23 +209,7 @@ class FieldMission:
             "scenario": self.scenario.name,
             "seed": self.seed,
             "robots": self.robot_list(),
-            "sites": [
-                {
-                    "id": s.id,
-                    "x": s.x,
-                    "y": s.y,
-                    "found": s.found_at is not None,
-                    "found_at": s.found_at,
-                    "remaining": s.remaining,
-                    "total": s.total,
-                    "excavator": s.worker,
-                }
-                for s in f.sites
-            ],
-            "dropped": [{"x": g.x, "y": g.y} for g in f.ground],
-            "scanned": f.scanned_b64(),
-            "scanned_count": f.scanned_count,
-            "cells_total": len(f.scanned),
+            **f.picture(),
             "auctions": [a.to_dict() for a in self.auctions if a.status == "open"],
             "counters": self.counters(),
         }
