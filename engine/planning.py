@@ -10,6 +10,7 @@ queries are cached per run.
 from __future__ import annotations
 
 import itertools
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -133,21 +134,24 @@ class OmplPlanner(ShortcutPlanner):
     def _solve(self, start: Point, goal: Point) -> Path:
         ss, space = self._ss, self._space
         for attempt in range(4):
-            self._ou.RNG.setSeed(int(self._rng.integers(1, 2**31 - 1)))
-            ss.clear()
-            st, gl = space.allocState(), space.allocState()
-            st[0], st[1] = start
-            gl[0], gl[1] = goal
-            ss.setStartAndGoalStates(st, gl)
-            ptc = self._ob.PlannerTerminationCondition(_countdown(self._checks * (attempt + 1)))
-            ss.solve(ptc)
-            del ptc
-            solved = ss.haveExactSolutionPath()
-            if solved:
-                ss.simplifySolution()
-                geo = ss.getSolutionPath()
-                pts = tuple((float(s[0]), float(s[1])) for s in geo.getStates())
-                del geo
+            seed = int(self._rng.integers(1, 2**31 - 1))
+            with _SEEDED_SOLVE:
+                self._ou.RNG.setSeed(seed)
+                ss.clear()
+                st, gl = space.allocState(), space.allocState()
+                st[0], st[1] = start
+                gl[0], gl[1] = goal
+                ss.setStartAndGoalStates(st, gl)
+                budget = self._checks * (attempt + 1)
+                ptc = self._ob.PlannerTerminationCondition(_countdown(budget))
+                ss.solve(ptc)
+                del ptc
+                solved = ss.haveExactSolutionPath()
+                if solved:
+                    ss.simplifySolution()
+                    geo = ss.getSolutionPath()
+                    pts = tuple((float(s[0]), float(s[1])) for s in geo.getStates())
+                    del geo
             self.stats.ompl_queries += 1
             if solved and len(pts) >= 2:
                 return (start, *pts[1:-1], goal)
@@ -158,6 +162,13 @@ class OmplPlanner(ShortcutPlanner):
         self.__dict__.pop("_ss", None)
         self.__dict__.pop("_motion", None)
         self.__dict__.pop("_space", None)
+
+
+_SEEDED_SOLVE = threading.Lock()
+"""OMPL's random generator is one per process and `RNG.setSeed` sets it for all: a solve must
+run from its seed to its path with no other thread's solve in between, or two engines in one
+process (the service steps live missions on one thread and replays playback on others)
+would draw from each other's sequence and stop being reproducible."""
 
 
 def _countdown(budget: int) -> Callable[[], bool]:
