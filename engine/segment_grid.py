@@ -69,6 +69,13 @@ class SegmentGrid:
             out[lo:hi] = self._free(ax[lo:hi], ay[lo:hi], bx[lo:hi], by[lo:hi])
         return out
 
+    def free_few(self, ax: Floats, ay: Floats, bx: Floats, by: Floats) -> Bools:
+        """`free` for a handful of segments: each against every disc at once, which beats the
+        march's per-sample numpy calls when there are few (the same test, the same answers)."""
+        dx, dy = bx - ax, by - ay
+        seg2 = dx * dx + dy * dy
+        return self._direct(ax, ay, dx, dy, np.where(seg2 > 0.0, seg2, 1.0))
+
     def _direct(self, ax: Floats, ay: Floats, dx: Floats, dy: Floats, safe2: Floats) -> Bools:
         """Each segment against every disc at once."""
         ex = self.discs[None, :, 0] - ax[:, None]
