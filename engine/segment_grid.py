@@ -29,6 +29,8 @@ _CHUNK = 65536
 """Segments marched together (bounds the temporary arrays to a few MB)."""
 _DIRECT = 100_000
 """Up to this many segment × disc pairs, every segment is tested against every disc."""
+_MARGIN = 1e-6
+"""Metres added round a bounding box, so rounding never drops a disc that touches it."""
 _FAR = 1e18
 """Centre of the padding crater that fills short cells (radius -1: never blocks)."""
 
@@ -70,19 +72,29 @@ class SegmentGrid:
         return out
 
     def free_few(self, ax: Floats, ay: Floats, bx: Floats, by: Floats) -> Bools:
-        """`free` for a handful of segments: each against every disc at once, which beats the
-        march's per-sample numpy calls when there are few (the same test, the same answers)."""
+        """`free` for a handful of segments: each against every disc near their bounding box
+        at once, which beats the march's per-sample numpy calls when there are few (the same
+        test, the same answers: a disc whose box misses theirs is farther than its radius)."""
+        discs = self.discs
+        near = (
+            (discs[:, 0] + discs[:, 2] >= min(ax.min(), bx.min()) - _MARGIN)
+            & (discs[:, 0] - discs[:, 2] <= max(ax.max(), bx.max()) + _MARGIN)
+            & (discs[:, 1] + discs[:, 2] >= min(ay.min(), by.min()) - _MARGIN)
+            & (discs[:, 1] - discs[:, 2] <= max(ay.max(), by.max()) + _MARGIN)
+        )
         dx, dy = bx - ax, by - ay
         seg2 = dx * dx + dy * dy
-        return self._direct(ax, ay, dx, dy, np.where(seg2 > 0.0, seg2, 1.0))
+        return self._direct(ax, ay, dx, dy, np.where(seg2 > 0.0, seg2, 1.0), discs[near])
 
-    def _direct(self, ax: Floats, ay: Floats, dx: Floats, dy: Floats, safe2: Floats) -> Bools:
-        """Each segment against every disc at once."""
-        ex = self.discs[None, :, 0] - ax[:, None]
-        ey = self.discs[None, :, 1] - ay[:, None]
+    def _direct(
+        self, ax: Floats, ay: Floats, dx: Floats, dy: Floats, safe2: Floats, discs: Floats
+    ) -> Bools:
+        """Each segment against every one of these discs at once."""
+        ex = discs[None, :, 0] - ax[:, None]
+        ey = discs[None, :, 1] - ay[:, None]
         u = np.clip((ex * dx[:, None] + ey * dy[:, None]) / safe2[:, None], 0.0, 1.0)
         gap = np.hypot(u * dx[:, None] - ex, u * dy[:, None] - ey)
-        return np.asarray((gap > self.discs[None, :, 2]).all(axis=1))
+        return np.asarray((gap > discs[None, :, 2]).all(axis=1))
 
     def _free(self, ax: Floats, ay: Floats, bx: Floats, by: Floats) -> Bools:
         dx, dy = bx - ax, by - ay
@@ -98,7 +110,7 @@ class SegmentGrid:
         while active.size:
             if active.size * len(self.discs) <= _DIRECT:  # few left: every disc at once
                 free[active] = self._direct(
-                    ax[active], ay[active], dx[active], dy[active], safe2[active]
+                    ax[active], ay[active], dx[active], dy[active], safe2[active], self.discs
                 )
                 break
             a_x, a_y, d_x, d_y = ax[active], ay[active], dx[active], dy[active]

@@ -59,6 +59,8 @@ class TangentGraph:
             Rim(c.x, c.y, c.r + clearance + _GROW + 1e-9 * (c.r + clearance)) for c in world.craters
         ]
         self._rim_xyr = np.array([(r.x, r.y, r.r) for r in self.rims]).reshape(-1, 3)
+        self._rim_x, self._rim_y, self._rim_r = (self._rim_xyr[:, k].copy() for k in range(3))
+        self._rim_r2 = self._rim_r * self._rim_r
         self._craters_xyr = np.array([(c.x, c.y, c.r + clearance) for c in world.craters]).reshape(
             -1, 3
         )
@@ -202,16 +204,18 @@ class TangentGraph:
         """The points where p's tangents touch every rim, untested: row i and row i + n (n
         rims) are on rim i; `exists` is False where p is inside the rim or the point outside
         the area. Testing which segments are free is left to the rims a search reaches."""
-        rims = self._rim_xyr
-        dx, dy = p[0] - rims[:, 0], p[1] - rims[:, 1]
-        d = np.hypot(dx, dy)
-        outside = d > rims[:, 2]
-        phi = np.arctan2(dy, dx)
-        alpha = np.arccos(np.where(outside, rims[:, 2] / np.where(outside, d, 1.0), 1.0))
-        ang = np.concatenate([phi + alpha, phi - alpha])
-        rim_of = np.concatenate([np.arange(len(rims))] * 2)
-        tx = rims[rim_of, 0] + rims[rim_of, 2] * np.cos(ang)
-        ty = rims[rim_of, 1] + rims[rim_of, 2] * np.sin(ang)
+        cx, cy, r = self._rim_x, self._rim_y, self._rim_r
+        dx, dy = p[0] - cx, p[1] - cy
+        d2 = dx * dx + dy * dy
+        outside = d2 > self._rim_r2
+        # the tangent points: c + (r²/d²)·v ± (r·√(d² − r²)/d²)·v⊥, with v = p − c
+        k = np.where(outside, self._rim_r2 / np.where(outside, d2, 1.0), 0.0)
+        h = np.where(outside, r * np.sqrt(np.maximum(d2 - self._rim_r2, 0.0)), 0.0) / np.where(
+            outside, d2, 1.0
+        )
+        bx, by = cx + k * dx, cy + k * dy
+        tx = np.concatenate([bx - h * dy, bx + h * dy])
+        ty = np.concatenate([by + h * dx, by - h * dx])
         exists = np.concatenate([outside, outside])
         exists &= (tx >= 0.0) & (tx <= self._world.width) & (ty >= 0.0) & (ty <= self._world.height)
         return np.stack([tx, ty], axis=1), exists
