@@ -58,8 +58,21 @@ def _time_solves() -> list[float]:
     return seconds
 
 
-def one_mission(args: tuple[str, int, int, str]) -> dict[str, Any]:
-    policy, seed, scale, planner = args
+TARGETS = {1: 0.10, 10: 3.0, 100: 120.0}
+"""Issue 14's wall-time targets per scale (seconds, median mission)."""
+SLOPE_TARGET = 1.3
+CHUNK_S = 250.0
+"""Simulated seconds advanced between looks at the mission's wall-time budget."""
+
+
+def one_mission(args: tuple[str, int, int, str, float, int]) -> dict[str, Any]:
+    """One mission, advanced until it ends or its wall time passes `budget` seconds; with
+    `profile` > 0, under cProfile, returning that many of its top functions (cumulative)."""
+    policy, seed, scale, planner, budget, profile = args
+    import cProfile
+    import io
+    import pstats
+
     from engine import Mission, reference_scenario
 
     solves = _time_solves()  # a fresh child process per mission: patched only here
@@ -70,10 +83,24 @@ def one_mission(args: tuple[str, int, int, str]) -> dict[str, Any]:
 
         for mod in ("ompl.base", "ompl.geometric", "ompl.util"):
             importlib.import_module(mod)
+    prof = cProfile.Profile() if profile else None
     t0, c0 = time.perf_counter(), time.process_time()
+    if prof is not None:
+        prof.enable()
     m = Mission(reference_scenario().scaled(scale), seed, policy, planner)  # type: ignore[arg-type]
-    metrics = m.run()
+    until = 0.0
+    while not m.done and time.perf_counter() - t0 < budget:
+        until += CHUNK_S
+        m.advance(until)
+    if prof is not None:
+        prof.disable()
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    metrics = m.metrics()
+    top = ""
+    if prof is not None:
+        out = io.StringIO()
+        pstats.Stats(prof, stream=out).sort_stats("cumulative").print_stats(profile)
+        top = out.getvalue()
     stats = m.ctx.planner.stats
     timed = sorted(solves)
     return {
@@ -81,6 +108,8 @@ def one_mission(args: tuple[str, int, int, str]) -> dict[str, Any]:
         "seed": seed,
         "scale": scale,
         "completed": metrics["completed"],
+        "finished": m.done,
+        "sim_s": m.now,
         "robots": sum(1 for r in m.ctx.robots.values() if r.rtype != "operator"),
         "delivered": m.ctx.field.delivered,
         "minerals": m.ctx.field.minerals_total,
@@ -93,10 +122,11 @@ def one_mission(args: tuple[str, int, int, str]) -> dict[str, Any]:
         "solves": len(timed),
         "solve_median_ms": 1000 * timed[len(timed) // 2] if timed else 0.0,
         "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "profile": top,
     }
 
 
-def run_isolated(args: tuple[str, int, int, str]) -> dict[str, Any]:
+def run_isolated(args: tuple[str, int, int, str, float, int]) -> dict[str, Any]:
     ctx = mp.get_context("spawn")
     with ctx.Pool(1) as pool:
         return pool.apply(one_mission, (args,))
@@ -123,6 +153,20 @@ def main() -> int:
         "--exact-from", type=int, default=100, help="scales >= this use the exact planner (0: none)"
     )
     ap.add_argument("--budget", type=float, default=900.0, help="stop starting scales after (s)")
+    ap.add_argument(
+        "--mission-budget",
+        type=float,
+        default=1800.0,
+        help="stop a mission after this many wall seconds (its row says how far it got)",
+    )
+    ap.add_argument(
+        "--profile",
+        type=int,
+        default=0,
+        metavar="N",
+        help="for each scale that misses its target, profile one more mission (first policy, "
+        "within the mission budget) and print its N top functions by cumulative time",
+    )
     opts = ap.parse_args()
     start = time.perf_counter()
     print(
@@ -131,6 +175,7 @@ def main() -> int:
         f"{'solve ms':>8} {'peak MB':>8} {'delivered':>11} done"
     )
     walls: dict[str, list[tuple[int, float]]] = {}
+    measured: dict[int, dict[str, Any]] = {}  # per scale, the first policy's figures
     for scale in (int(s) for s in opts.scales.split(",")):
         if time.perf_counter() - start > opts.budget:
             print(f"scale {scale}: skipped, the {opts.budget:.0f} s budget is spent")
@@ -138,9 +183,15 @@ def main() -> int:
         seeds = opts.seeds if scale == 1 else 1
         planner = "exact" if opts.exact_from and scale >= opts.exact_from else opts.planner
         for policy in opts.policies.split(","):
-            rows = [run_isolated((policy, s, scale, planner)) for s in range(seeds)]
+            rows = [
+                run_isolated((policy, s, scale, planner, opts.mission_budget, 0))
+                for s in range(seeds)
+            ]
             wall = statistics.median(r["wall_s"] for r in rows)
-            walls.setdefault(policy, []).append((rows[0]["robots"], wall))
+            finished = all(r["finished"] for r in rows)
+            if finished:
+                walls.setdefault(policy, []).append((rows[0]["robots"], wall))
+            measured.setdefault(scale, {"policy": policy, "planner": planner, "rows": rows})
             speed = statistics.median(r["makespan_s"] / r["wall_s"] for r in rows)
             delivered = f"{min(r['delivered'] for r in rows)}/{rows[0]['minerals']}"
             print(
@@ -156,12 +207,58 @@ def main() -> int:
                 f"{sum(r['completed'] for r in rows)}/{len(rows)}",
                 flush=True,
             )
+            if not finished:
+                r = max(rows, key=lambda r: r["wall_s"])
+                print(
+                    f"      not finished: stopped after {r['wall_s']:.0f} s wall at simulated "
+                    f"t = {r['sim_s']:.0f} s, {r['delivered']}/{r['minerals']} delivered"
+                )
+    slopes: dict[str, float] = {}
     for policy, points in walls.items():
         k = slope(points)
         if k is not None:
+            slopes[policy] = k
             teams = ", ".join(str(n) for n, _ in points)
             print(f"log-log slope of wall time over team size ({teams}), {policy}: {k:.2f}")
+    missed = print_targets(measured, slopes)
+    if opts.profile:
+        for scale in missed:
+            m = measured[scale]
+            print(f"\nprofile, scale {scale}, {m['policy']}, {m['planner']} (one more mission):")
+            args = (m["policy"], 0, scale, m["planner"], opts.mission_budget, opts.profile)
+            print(run_isolated(args)["profile"])
     return 0
+
+
+def print_targets(measured: dict[int, dict[str, Any]], slopes: dict[str, float]) -> list[int]:
+    """Issue 14's targets against what was measured; returns the scales that missed theirs."""
+    print("\ntarget                         measured        target    verdict")
+    missed = []
+    for scale, target in TARGETS.items():
+        if scale not in measured:
+            continue
+        rows = measured[scale]["rows"]
+        wall = statistics.median(r["wall_s"] for r in rows)
+        all_in = all(r["finished"] and r["delivered"] == r["minerals"] for r in rows)
+        if all(r["finished"] for r in rows):
+            shown = f"{wall:.3f} s"
+            verdict = "met" if wall <= target and all_in else f"{wall / target:.1f}x over"
+        else:
+            sim = min(r["sim_s"] for r in rows)
+            shown = f"> {wall:.0f} s"
+            verdict = f"not finished (t = {sim:.0f} s simulated)"
+        if not all_in:
+            verdict += ", minerals missing"
+        if scale == 100:
+            verdict += f", peak {max(r['peak_mb'] for r in rows):.0f} MB"
+        if not verdict.startswith("met"):
+            missed.append(scale)
+        name = f"scale {scale}, {measured[scale]['policy']}, median wall"
+        print(f"{name:<30} {shown:<15} <= {target:<6g} {verdict}")
+    for policy, k in slopes.items():
+        verdict = "met" if k <= SLOPE_TARGET else f"{k - SLOPE_TARGET:.2f} over"
+        print(f"{'log-log slope, ' + policy:<30} {k:<15.2f} <= {SLOPE_TARGET:<6g} {verdict}")
+    return missed
 
 
 if __name__ == "__main__":
