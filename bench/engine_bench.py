@@ -65,15 +65,16 @@ CHUNK_S = 250.0
 """Simulated seconds advanced between looks at the mission's wall-time budget."""
 
 
-def one_mission(args: tuple[str, int, int, str, float, int]) -> dict[str, Any]:
+def one_mission(args: tuple[str, int, int, str, float, int, str]) -> dict[str, Any]:
     """One mission, advanced until it ends or its wall time passes `budget` seconds; with
     `profile` > 0, under cProfile, returning that many of its top functions (cumulative)."""
-    policy, seed, scale, planner, budget, profile = args
+    policy, seed, scale, planner, budget, profile, busy_bid = args
     import cProfile
     import io
     import pstats
 
     from engine import Mission, reference_scenario
+    from engine.scenario import Protocol
 
     solves = _time_solves()  # a fresh child process per mission: patched only here
     if planner == "ompl":
@@ -87,7 +88,10 @@ def one_mission(args: tuple[str, int, int, str, float, int]) -> dict[str, Any]:
     t0, c0 = time.perf_counter(), time.process_time()
     if prof is not None:
         prof.enable()
-    m = Mission(reference_scenario().scaled(scale), seed, policy, planner)  # type: ignore[arg-type]
+    scenario = reference_scenario().scaled(scale)
+    protocol = Protocol.model_validate({**scenario.protocol.model_dump(), "busy_bid": busy_bid})
+    scenario = scenario.model_copy(update={"protocol": protocol})
+    m = Mission(scenario, seed, policy, planner)  # type: ignore[arg-type]
     until = 0.0
     while not m.done and time.perf_counter() - t0 < budget:
         until += CHUNK_S
@@ -126,7 +130,7 @@ def one_mission(args: tuple[str, int, int, str, float, int]) -> dict[str, Any]:
     }
 
 
-def run_isolated(args: tuple[str, int, int, str, float, int]) -> dict[str, Any]:
+def run_isolated(args: tuple[str, int, int, str, float, int, str]) -> dict[str, Any]:
     ctx = mp.get_context("spawn")
     with ctx.Pool(1) as pool:
         return pool.apply(one_mission, (args,))
@@ -151,6 +155,12 @@ def main() -> int:
     ap.add_argument("--planner", default="ompl", choices=("ompl", "exact"))
     ap.add_argument(
         "--exact-from", type=int, default=100, help="scales >= this use the exact planner (0: none)"
+    )
+    ap.add_argument(
+        "--busy-bid",
+        default="once",
+        choices=("once", "silent"),
+        help="protocol.busy_bid: the specification's -inf from every busy robot, or silence",
     )
     ap.add_argument("--budget", type=float, default=900.0, help="stop starting scales after (s)")
     ap.add_argument(
@@ -184,7 +194,7 @@ def main() -> int:
         planner = "exact" if opts.exact_from and scale >= opts.exact_from else opts.planner
         for policy in opts.policies.split(","):
             rows = [
-                run_isolated((policy, s, scale, planner, opts.mission_budget, 0))
+                run_isolated((policy, s, scale, planner, opts.mission_budget, 0, opts.busy_bid))
                 for s in range(seeds)
             ]
             wall = statistics.median(r["wall_s"] for r in rows)
@@ -225,7 +235,15 @@ def main() -> int:
         for scale in missed:
             m = measured[scale]
             print(f"\nprofile, scale {scale}, {m['policy']}, {m['planner']} (one more mission):")
-            args = (m["policy"], 0, scale, m["planner"], opts.mission_budget, opts.profile)
+            args = (
+                m["policy"],
+                0,
+                scale,
+                m["planner"],
+                opts.mission_budget,
+                opts.profile,
+                opts.busy_bid,
+            )
             print(run_isolated(args)["profile"])
     return 0
 

@@ -100,7 +100,7 @@ class Protocol(_Model):
     heartbeat_s: Annotated[float, Field(ge=MIN_HEARTBEAT_S, le=3600, allow_inf_nan=False)] = 10.0
     failure_timeout_s: Annotated[float, Field(gt=0, le=36000, allow_inf_nan=False)] = 30.0
     probes: Annotated[int, Field(ge=0, le=20)] = 5
-    busy_bid: Literal["once", "every_round"] = "once"
+    busy_bid: Literal["once", "every_round", "silent"] = "once"
 
     @model_validator(mode="after")
     def _consistent(self) -> Protocol:

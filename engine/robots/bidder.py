@@ -195,8 +195,15 @@ class Bidder(RobotCore):
             return math.inf
 
     def _bid(self, a: OpenAuction, rnd: int, utility: float) -> None:
+        prev = self.my_bids.get(a.auction_id)
         self.my_bids[a.auction_id] = (rnd, utility)
         self._refused = None
+        if (
+            self._silent_when_busy
+            and utility == -math.inf
+            and (prev is None or not math.isfinite(prev[1]))
+        ):
+            return  # busy_bid = silent: no finite bid of mine to withdraw, so -inf says nothing
         self.ctx.bus.publish(
             Bid(
                 sender=self.name,

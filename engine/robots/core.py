@@ -76,6 +76,7 @@ class RobotCore:
         self.partner = coalition_partner(name)  # Policy 2's pairing rule, fixed by the name
         self.house = AuctionHouse(name, ctx, self._on_allocated)
         self._every_round = ctx.scenario.protocol.busy_bid == "every_round"
+        self._silent_when_busy = ctx.scenario.protocol.busy_bid == "silent"
         self.current: Assignment | None = None
         self.queue: deque[Assignment] = deque()
         self._procs: list[Any] = []
