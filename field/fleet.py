@@ -17,13 +17,22 @@ import sys
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from engine.messages import Heartbeat
 from engine.scenario import ROBOT_TYPES, Scenario
 from field.transport import open_session
-from field.wire import PREFIX, command_key, decode, decode_json, encode_json, messages_selector
+from field.wire import (
+    PREFIX,
+    body_key,
+    command_key,
+    decode,
+    decode_json,
+    encode_json,
+    messages_selector,
+)
 from field.world_service import WorldService
 
 
@@ -53,6 +62,7 @@ class Recorder:
     heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
     auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
+    on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
 
     def on_message(self, sample: Any) -> None:
         msg = decode(sample.payload.to_bytes())
@@ -65,6 +75,8 @@ class Recorder:
             self.by_type[kind] = self.by_type.get(kind, 0) + 1
             if isinstance(msg, Heartbeat):
                 self.heartbeats[msg.sender] = msg
+        if self.on_heard is not None:
+            self.on_heard(msg.sender, (msg.x, msg.y) if isinstance(msg, Heartbeat) else None)
 
     def on_report(self, sample: Any) -> None:
         data = decode_json(sample.payload.to_bytes())
@@ -74,7 +86,8 @@ class Recorder:
             if data.get("kind") == "auction" and isinstance(data.get("record"), dict):
                 rec = data["record"]
                 self.auctions[str(rec.get("id"))] = rec
-            elif data.get("kind") == "event":
+            elif data.get("kind") == "event" and data.get("by") != "world":
+                # (the world service's own events come in by `on_world_event`, once)
                 self.events.append(data)
 
     def on_world_event(self, data: dict[str, Any]) -> None:
@@ -112,9 +125,14 @@ class Fleet:
         self.world = WorldService(
             self.session, self.mission, scenario, seed, policy, speed, self.recorder.on_world_event
         )
+        self.recorder.on_heard = self.world.note_heard
         self.procs: dict[str, Proc] = {}
         self.history: list[Proc] = []
         self._counts: dict[str, int] = dict.fromkeys(ROBOT_TYPES, 0)
+        self._settled: dict[str, float] = {}  # dead robots settled, and when (mission time)
+        self._closing = threading.Event()
+        self._watcher = threading.Thread(target=self._watch, name="fleet-deaths", daemon=True)
+        self._watcher.start()
 
     def now(self) -> float:
         return self.world.clock.now()
@@ -140,6 +158,7 @@ class Fleet:
         proc = Proc(name, popen, self.now())
         self.procs[name] = proc
         self.history.append(proc)
+        self._settled.pop(name, None)
         return proc
 
     def up(self) -> None:
@@ -162,6 +181,39 @@ class Fleet:
             os.killpg(proc.popen.pid, signal.SIGKILL)
         proc.popen.wait()
         proc.killed_at = self.now()
+        self._lost(name)
+
+    # --- deaths -------------------------------------------------------------------------------
+    def _lost(self, name: str) -> None:
+        if name not in self._settled:
+            self._settled[name] = self.now()
+            self.world.robot_lost(name)
+
+    def _watch(self) -> None:
+        """Notice dead robots and settle them (`WorldService.robot_lost`): an agent process of
+        this fleet that exited, or any robot silent for the protocol's failure timeout whose
+        body does not answer a look (an agent on another machine)."""
+        timeout = self.world.scenario.protocol.failure_timeout_s
+        while not self._closing.wait(0.1):
+            for name, proc in list(self.procs.items()):
+                if proc.popen.poll() is not None and not self._closing.is_set():
+                    self._lost(name)
+            now = self.now()
+            for name, heard in list(self.world.heard.items()):
+                if name in self._settled and heard > self._settled[name] and name not in self.procs:
+                    del self._settled[name]  # an agent elsewhere is back: it may die again
+                if name in self.procs or name in self._settled or now - heard < timeout:
+                    continue
+                if not self._answers(name):
+                    self._lost(name)
+
+    def _answers(self, name: str) -> bool:
+        req = encode_json({"op": "look", "args": {}, "caller": {"name": "mission-control"}})
+        with contextlib.suppress(Exception):
+            for reply in self.session.get(body_key(self.mission, name), payload=req, timeout=2.0):
+                if reply.ok is not None:
+                    return True
+        return False
 
     def set_policy(self, policy: str) -> None:
         self.world.policy = policy
@@ -171,6 +223,8 @@ class Fleet:
 
     def close(self) -> None:
         """Stop every agent (asked first, then SIGKILL to any group still there)."""
+        self._closing.set()
+        self._watcher.join(timeout=5.0)
         with contextlib.suppress(Exception):
             self.session.put(command_key(self.mission), encode_json({"cmd": "stop"}))
         deadline = time.monotonic() + 3.0

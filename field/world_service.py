@@ -114,6 +114,9 @@ class WorldService:
         self.roster: dict[str, str] = {n: n.rsplit("-", 1)[0] for n in names}
         self.starts = dict(zip(names, starts, strict=True))
         self.spawned: dict[str, int] = {}
+        self.loads: dict[str, int] = {}  # minerals on board, by robot (bucket or bin)
+        self.seen: dict[str, tuple[float, float, float]] = {}  # robot -> (t, x, y) last heard
+        self.heard: dict[str, float] = {}  # robot -> mission time it was last heard
         self.queries = 0
         self._lock = threading.Lock()
         self._session = session
@@ -167,11 +170,14 @@ class WorldService:
             ]
         if op == "site_set":
             s = self._site(a["id"])
+            before = s.remaining
             for key in ("remaining", "worker", "last_worker"):
                 if key in a:
                     setattr(s, key, a[key])
             if "remaining" in a:
                 self.observer.progress_at = self.clock.now()
+                if "by" in a and s.remaining < before:  # dug: out of the pile, into the bucket
+                    self._hold(str(a["by"]), before - s.remaining, (s.x, s.y))
             return site_dict(s)
         if op == "found":
             f.note_site_found(self._site(a["id"]), str(a["by"]))
@@ -182,20 +188,72 @@ class WorldService:
         if op == "ground":
             return [self._ground_dict(g) for g in f.ground]
         if op == "drop":
-            f.drop_mineral((float(a["x"]), float(a["y"])), str(a["by"]))
+            p = (float(a["x"]), float(a["y"]))
+            self._hold(str(a["by"]), -1, p)
+            f.drop_mineral(p, str(a["by"]))
             return None
         if op == "pick":
             g = next((g for g in f.ground if g.id == a["id"]), None)
             if g is None:
                 return False
             f.pick_ground(g, str(a["by"]))
+            self._hold(str(a["by"]), 1, (g.x, g.y))
             return True
+        if op == "handover":  # an excavator emptied its bucket into this hauler's bin
+            p = (float(a["x"]), float(a["y"]))
+            self._hold(str(a["src"]), -1, p)
+            self._hold(str(a["by"]), 1, p)
+            return None
         if op == "deliver":
+            self._hold(str(a["by"]), -1, self.world.plant)
             f.note_delivery(str(a["by"]))
             return None
         if op == "status":
             return self.status()
         raise ValueError(f"op: unknown operation {op!r}")
+
+    # --- what each robot carries, and a robot's death ------------------------------------------
+    def _hold(self, name: str, n: int, p: tuple[float, float]) -> None:
+        """`name` took on (n > 0) or let go of (n < 0) minerals at p: the world's record of its
+        bucket or bin, kept from the operations that move a mineral (dig, hand-over, pick-up,
+        drop, delivery), each one query, so a mineral is always in exactly one place here."""
+        self.loads[name] = max(0, self.loads.get(name, 0) + n)
+        self._saw(name, self.clock.now(), p)
+
+    def _saw(self, name: str, t: float, p: tuple[float, float]) -> None:
+        if t >= self.seen.get(name, (-math.inf, 0.0, 0.0))[0]:
+            self.seen[name] = (t, float(p[0]), float(p[1]))
+
+    def note_heard(self, name: str, pos: tuple[float, float] | None = None) -> None:
+        """Mission control heard a message from `name` (with a position: a heartbeat)."""
+        with self._lock:
+            now = self.clock.now()
+            self.heard[name] = now
+            if pos is not None:
+                self._saw(name, now, pos)
+
+    def robot_lost(self, name: str) -> int:
+        """`name` died (SIGKILL, a crash, silence): as `Robot.fail` → `drop_loads` in the
+        engine, what it carried falls to the ground where it was last heard of (a heartbeat's
+        position, or where it last took a mineral on, whichever is later) and a site it was
+        digging has no worker any more. The excavators' ground-mineral auctions and the
+        recovery transports of its peers take it from there. Idempotent; the number dropped."""
+        with self._lock:
+            return self._settle(name)
+
+    def _settle(self, name: str) -> int:
+        n = self.loads.pop(name, 0)
+        _t, x, y = self.seen.get(name, (0.0, *self.starts.get(name, self.world.plant)))
+        for _ in range(n):
+            self.field.drop_mineral((x, y), name)
+        for s in self.field.sites:
+            if s.worker == name:
+                s.worker = None
+        return n
+
+    def aboard(self) -> int:
+        with self._lock:
+            return sum(self.loads.values())
 
     def _site(self, site_id: Any) -> SiteState:
         for s in self.field.sites:
@@ -213,6 +271,8 @@ class WorldService:
             raise ValueError(f"name: {name!r} must be scout-N, excavator-N or hauler-N")
         times = self.spawned.get(name, 0)
         self.spawned[name] = times + 1
+        if times:  # a new life: its last one ended, settled or not yet (the lock is held)
+            self._settle(name)
         pos = self.starts.get(name) or start_positions(self.world, self.scenario.start_spread, 1)[0]
         return {
             "rtype": rtype,
@@ -235,6 +295,7 @@ class WorldService:
             "sites_found": f.sites_found,
             "sites_total": len(f.sites),
             "ground": len(f.ground),
+            "aboard": sum(self.loads.values()),
             "sites_remaining": sum(s.remaining for s in f.sites),
             "scanned": f.scanned_count,
             "finished": f.finished.triggered,
