@@ -25,7 +25,7 @@ from engine.context import MissionContext
 from engine.messages import Heartbeat, Hello, Message
 from engine.mission import make_planner
 from engine.policies import POLICIES, make_policy
-from engine.robots import Excavator, Hauler, Robot, Scout
+from engine.robots import Excavator, Hauler, Operator, Robot, Scout
 from engine.scenario import Scenario
 from engine.spiral import spiral_routes
 from engine.world import generate_world
@@ -35,9 +35,11 @@ from field.wire import (
     body_key,
     check_segment,
     command_key,
+    decode_inject,
     decode_json,
     encode_json,
     event_key,
+    operator_key,
     world_key,
 )
 from field.world_service import MissionClock
@@ -120,13 +122,15 @@ class Agent:
         )
         rtype, roster = spawn["rtype"], dict(spawn["roster"])
         pos = (float(spawn["pos"][0]), float(spawn["pos"][1]))
-        speed_mps = getattr(scenario.speeds, rtype)
-        if rtype == "scout":
+        speed_mps = getattr(scenario.speeds, rtype, 1.0)
+        if rtype == "operator":  # the operator's console: auctions operator tasks
+            robot: Robot = Operator(name, ctx, pos, 1.0)
+        elif rtype == "scout":
             routes = {
                 f"scout-{i + 1}": r
                 for i, r in enumerate(spiral_routes(world.grid, world.plant, scenario.team.scouts))
             }
-            robot: Robot = Scout(name, ctx, pos, speed_mps, routes)
+            robot = Scout(name, ctx, pos, speed_mps, routes)
         else:
             robot = _CLASSES[rtype](name, ctx, pos, speed_mps)
         self.robot = robot
@@ -140,6 +144,11 @@ class Agent:
         robot.peers = roster
         self._body = self.session.declare_queryable(body_key(mission, name), self._on_body)
         self._commands = self.session.declare_subscriber(command_key(mission), self._on_command)
+        self._tasks = (
+            self.session.declare_queryable(operator_key(mission), self._on_task)
+            if rtype == "operator"
+            else None
+        )
         robot.start(joined_late=bool(spawn["joined_late"]))
 
     # --- queries ----------------------------------------------------------------------------
@@ -238,6 +247,21 @@ class Agent:
                 self.robot.policy_changed()
         else:
             log.warning("dropped an unknown command %r", cmd.get("cmd"))
+
+    def _on_task(self, query: Any) -> None:
+        """The operator's console: mission control asks it to auction an operator task."""
+        task = decode_inject(query.payload.to_bytes() if query.payload is not None else b"")
+        reply: dict[str, Any] = {"ok": False, "error": "malformed operator task"}
+        if task is not None and self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
+            try:
+                rec = self.robot.house.open(
+                    task.task_type, (task.x, task.y), task.task_id, kind="operator"
+                )
+                reply = {"ok": True, "value": {"auction_id": rec.id}}
+                self.bus.inbox.ready.set()  # the clock loop: its announcement is due now
+            finally:
+                self.lock.release()
+        query.reply(query.key_expr, encode_json(reply))
 
     def report(self, data: dict[str, Any]) -> None:
         """An event or auction record for mission control (robots never read these)."""

@@ -22,18 +22,24 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from engine.messages import Heartbeat
+from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from field.transport import open_session
 from field.wire import (
     PREFIX,
+    InjectTask,
     body_key,
     command_key,
     decode,
     decode_json,
     encode_json,
     messages_selector,
+    operator_key,
 )
 from field.world_service import WorldService
+
+INJECT_WAIT_S = 10.0
+"""How long (wall) mission control waits for the operator's console to take a task."""
 
 
 def free_port() -> int:
@@ -128,6 +134,7 @@ class Fleet:
         self.recorder.on_heard = self.world.note_heard
         self.procs: dict[str, Proc] = {}
         self.history: list[Proc] = []
+        self.operator: Proc | None = None
         self._counts: dict[str, int] = dict.fromkeys(ROBOT_TYPES, 0)
         self._settled: dict[str, float] = {}  # dead robots settled, and when (mission time)
         self._closing = threading.Event()
@@ -140,6 +147,13 @@ class Fleet:
     def spawn(self, name: str) -> Proc:
         rtype = name.rsplit("-", 1)[0]
         self._counts[rtype] = max(self._counts.get(rtype, 0), int(name.rsplit("-", 1)[1]))
+        proc = Proc(name, self._start(name), self.now())
+        self.procs[name] = proc
+        self.history.append(proc)
+        self._settled.pop(name, None)
+        return proc
+
+    def _start(self, name: str) -> subprocess.Popen[bytes]:
         cmd = [
             sys.executable,
             "-m",
@@ -152,18 +166,39 @@ class Fleet:
             "--connect",
             self.endpoint,
         ]
-        popen = subprocess.Popen(  # its own process group: killed as a whole
+        return subprocess.Popen(  # its own process group: killed as a whole
             cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=None
         )
-        proc = Proc(name, popen, self.now())
-        self.procs[name] = proc
-        self.history.append(proc)
-        self._settled.pop(name, None)
-        return proc
 
-    def up(self) -> None:
+    def up(self, operator: bool = False) -> None:
+        """One agent per robot of the roster and, with `operator`, the operator's console (an
+        agent with no body that auctions operator tasks: `inject`)."""
+        if operator:
+            self.operator = Proc(OPERATOR, self._start(OPERATOR), self.now())
         for name in self.world.roster:
             self.spawn(name)
+
+    def inject(self, task_type: str, p: tuple[float, float], task_id: str) -> str:
+        """Have the operator's console auction a task; its auction's id. ValueError when the
+        console does not answer (not started, or gone)."""
+        if self.operator is None or self.operator.popen.poll() is not None:
+            raise ValueError("inject_task: this field mission has no operator console")
+        req = InjectTask(
+            v=1, cmd="inject_task", task_type=task_type, x=p[0], y=p[1], task_id=task_id
+        )  # type: ignore[arg-type]
+        deadline = time.monotonic() + INJECT_WAIT_S
+        while time.monotonic() < deadline:  # (it may still be starting)
+            for reply in self.session.get(
+                operator_key(self.mission), payload=req.model_dump_json().encode(), timeout=2.0
+            ):
+                if reply.ok is None:
+                    continue
+                rep = decode_json(reply.ok.payload.to_bytes())
+                if rep is not None and rep.get("ok"):
+                    return str(rep["value"]["auction_id"])
+                raise ValueError(f"inject_task: refused by the operator console: {rep}")
+            time.sleep(0.1)
+        raise ValueError("inject_task: the operator console did not answer")
 
     def add(self, rtype: str) -> str:
         if rtype not in ROBOT_TYPES:
@@ -228,10 +263,11 @@ class Fleet:
         with contextlib.suppress(Exception):
             self.session.put(command_key(self.mission), encode_json({"cmd": "stop"}))
         deadline = time.monotonic() + 3.0
-        for proc in self.history:
+        everyone = [*self.history, *([self.operator] if self.operator else [])]
+        for proc in everyone:
             with contextlib.suppress(subprocess.TimeoutExpired):
                 proc.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
-        for proc in self.history:
+        for proc in everyone:
             if proc.popen.poll() is None:
                 with contextlib.suppress(ProcessLookupError):
                     os.killpg(proc.popen.pid, signal.SIGKILL)

@@ -24,6 +24,7 @@ from engine.field import Field, SiteState
 from engine.geometry import dist, first_entry
 from engine.observer import Observer
 from engine.policies import resolve_policy
+from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.world import World, generate_world
 from field.wire import decode_json, encode_json, event_key, world_key
@@ -266,14 +267,16 @@ class WorldService:
         return {"id": g.id, "x": g.x, "y": g.y, "dropped_at": g.dropped_at}
 
     def _spawn(self, name: str) -> dict[str, Any]:
-        rtype = name.rsplit("-", 1)[0]
-        if rtype not in ROBOT_TYPES:
+        rtype = "operator" if name == OPERATOR else name.rsplit("-", 1)[0]
+        if rtype not in (*ROBOT_TYPES, "operator"):
             raise ValueError(f"name: {name!r} must be scout-N, excavator-N or hauler-N")
         times = self.spawned.get(name, 0)
         self.spawned[name] = times + 1
         if times:  # a new life: its last one ended, settled or not yet (the lock is held)
             self._settle(name)
         pos = self.starts.get(name) or start_positions(self.world, self.scenario.start_spread, 1)[0]
+        if rtype == "operator":  # the operator's console: an auctioneer with no body
+            pos = self.world.plant
         return {
             "rtype": rtype,
             "pos": list(pos),

@@ -15,7 +15,7 @@ import pytest
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog, Server
-from tests.e2e.test_dashboard import Start, open_live, wait_for
+from tests.e2e.test_dashboard import Start, free_point, open_live, wait_for
 from tests.field.serial import one_field_mission_at_a_time
 
 
@@ -60,6 +60,21 @@ def _field_mission_on_the_dashboard(
     assert res.status_code in (200, 201), res.text
     newcomer = res.json()["name"]
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=30_000)
+    # an operator task, as in a simulated mission: checked (422 naming the field), then
+    # auctioned by the operator's console (its own agent process), asked over the wire
+    res = api.post(f"/missions/{mid}/tasks", json={"type": "transport", "location": [-5, 10]})
+    assert res.status_code == 422 and "location" in res.text, res.text
+    x, y = free_point(page)
+    res = api.post(f"/missions/{mid}/tasks", json={"type": "transport", "location": [x, y]})
+    assert res.status_code == 201, res.text
+    injected = res.json()["auction_id"]
+    assert injected.startswith("operator/")
+    wait_for(  # a hauler wins it (and finds nothing there to carry: a void transport)
+        page,
+        f"""window.__regolith.auctions.some(a => a.id === '{injected}' && a.kind === 'operator'
+            && a.status === 'closed' && (a.allocated_to || '').startsWith('hauler-'))""",
+        timeout=60,
+    )
     # the victim's transport is re-auctioned (its peers notice the silence) and won by another
     wait_for(
         page,
@@ -98,6 +113,11 @@ def _field_mission_on_the_dashboard(
         return list(res.json()["items"])
 
     assert len(events("delivered")) == 64  # each delivery recorded once
+    (inj,) = events("task_injected")
+    assert inj["data"]["auction_id"] == injected and inj["data"]["task_type"] == "transport"
+    assert [a["id"] for a in items if a["kind"] == "operator"] == [injected]
+    acts = api.get(f"/missions/{mid}/actions").json()
+    assert [a["kind"] for a in acts].count("inject_task") == 1, acts
     assert len(events("mineral_dropped")) == len(events("mineral_recovered"))
     # the agents' processes are gone once the mission has ended
     deadline = time.monotonic() + 15
