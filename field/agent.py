@@ -15,6 +15,7 @@ import dataclasses
 import logging
 import threading
 import time
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -51,6 +52,12 @@ QUERY_TIMEOUT_S = 2.0
 MISSION_CONTROL_GONE_S = 10.0
 
 
+def _moves_a_mineral(req: dict[str, Any]) -> bool:
+    """A body call that moves a mineral from the caller to this robot (a hand-over)."""
+    args = req.get("args")
+    return req.get("op") == "call" and isinstance(args, dict) and args.get("method") == "receive"
+
+
 class AgentError(RuntimeError):
     """The agent cannot join its mission (no world service, refused name, bad options)."""
 
@@ -85,6 +92,7 @@ class Agent:
         self.step = 0
         self.lock = threading.Lock()
         self.stopped = threading.Event()
+        self._pending: deque[dict[str, Any]] = deque()  # body calls kept for the clock loop
         self.session = open_session(listen=listen, connect=connect)
         spawn = self._spawn()
         if speed is not None and abs(speed - spawn["speed"]) > 1e-9:
@@ -153,9 +161,14 @@ class Agent:
 
     # --- queries ----------------------------------------------------------------------------
     def _ask(self, key: str, req: dict[str, Any]) -> dict[str, Any] | None:
-        for reply in self.session.get(key, payload=encode_json(req), timeout=QUERY_TIMEOUT_S):
-            if reply.ok is not None:
-                return decode_json(reply.ok.payload.to_bytes())
+        try:
+            replies = self.session.get(key, payload=encode_json(req), timeout=QUERY_TIMEOUT_S)
+            for reply in replies:
+                if reply.ok is not None:
+                    return decode_json(reply.ok.payload.to_bytes())
+        except Exception:  # the session closed under a robot still running at shutdown
+            if not self.stopped.is_set():
+                raise
         return None
 
     def _spawn(self) -> dict[str, Any]:
@@ -203,7 +216,26 @@ class Agent:
                 reply = {"ok": False, "error": str(exc)[:200]}
             finally:
                 self.lock.release()
+        elif req is not None and _moves_a_mineral(req):
+            # the caller has emptied its bucket already and goes on whatever I answer: the
+            # mineral must reach my bin, so the call is kept for the clock loop to apply as
+            # soon as it holds the lock (refusing it for a busy lock lost the mineral)
+            log.warning("%s: busy; a hand-over kept for the clock loop", self.name)
+            self._pending.append(req)
+            self.bus.inbox.ready.set()
+            reply = {"ok": True, "value": None}
+        else:
+            reply = {"ok": False, "error": "busy"}
         query.reply(query.key_expr, encode_json(reply))
+
+    def _apply_pending(self) -> None:
+        """Body calls kept while the lock was busy (`_on_body`); the lock is held."""
+        while self._pending:
+            req = self._pending.popleft()
+            try:
+                self._serve_body(req)
+            except (KeyError, TypeError, ValueError) as exc:
+                log.warning("a kept body call failed: %s", exc)
 
     def _serve_body(self, req: dict[str, Any]) -> dict[str, Any]:
         if req.get("op") == "look":
@@ -288,6 +320,7 @@ class Agent:
         while not self.stopped.is_set():
             with self.lock:
                 bus.inbox.ready.clear()
+                self._apply_pending()
                 t = clock.now()
                 while env.peek() <= t:
                     env.step()

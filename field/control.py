@@ -19,7 +19,7 @@ from typing import Any
 from engine.errors import CommandRejected, UnknownRobotError
 from engine.events import Event
 from engine.geometry import point_along
-from engine.policies import resolve_policy
+from engine.policies import POLICIES, resolve_policy
 from engine.robots.scout import site_task_id
 from engine.scenario import Scenario
 from field.fleet import Fleet
@@ -250,6 +250,10 @@ class FieldMission:
             name = resolve_policy(policy)
         except ValueError as exc:
             raise CommandRejected(str(exc)) from None
+        if not POLICIES[name].decentralized:  # as at creation (app check_field)
+            raise CommandRejected(
+                f"policy: {name} is centralized; field mode runs decentralized ones"
+            )
         self._record("set_policy", policy=name)
         old = self.policy
         self.fleet.set_policy(name)

@@ -252,9 +252,16 @@ class WorldService:
                 s.worker = None
         return n
 
-    def aboard(self) -> int:
+    def minerals_in(self) -> dict[str, int]:
+        """Where every mineral is, read at one instant: they add up to the total."""
         with self._lock:
-            return sum(self.loads.values())
+            f = self.field
+            return {
+                "sites": sum(s.remaining for s in f.sites),
+                "aboard": sum(self.loads.values()),
+                "ground": len(f.ground),
+                "delivered": f.delivered,
+            }
 
     def _site(self, site_id: Any) -> SiteState:
         for s in self.field.sites:
