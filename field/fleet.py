@@ -38,6 +38,8 @@ from field.wire import (
 )
 from field.world_service import WorldService
 
+REALISM = ("energy", "docks", "uncertainty", "radio")
+"""The scenario's realism options (docs/model.md); field mode runs none of them."""
 INJECT_WAIT_S = 10.0
 """How long (wall) mission control waits for the operator's console to take a task."""
 
@@ -112,8 +114,12 @@ class Fleet:
         mission: str | None = None,
         listen_host: str = "127.0.0.1",
     ) -> None:
-        if scenario.energy.enabled or scenario.docks.enabled or scenario.radio.enabled:
-            raise ValueError("scenario: field mode runs without the realism options")
+        on = [o for o in REALISM if getattr(scenario, o).enabled]
+        if on:  # (the agents build their robots without them)
+            raise ValueError(
+                f"scenario.{on[0]}: field mode runs without the realism options "
+                f"({', '.join(REALISM)})"
+            )
         self.mission = mission or f"m{uuid.uuid4().hex[:10]}"
         self.port = port or free_port()
         self.endpoint = f"tcp/{listen_host}:{self.port}"
