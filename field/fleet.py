@@ -189,9 +189,8 @@ class Fleet:
         console does not answer (not started, or gone)."""
         if self.operator is None or self.operator.popen.poll() is not None:
             raise ValueError("inject_task: this field mission has no operator console")
-        req = InjectTask(
-            v=1, cmd="inject_task", task_type=task_type, x=p[0], y=p[1], task_id=task_id
-        )  # type: ignore[arg-type]
+        fields = {"task_type": task_type, "x": p[0], "y": p[1], "task_id": task_id}
+        req = InjectTask.model_validate({"v": 1, "cmd": "inject_task", **fields})
         deadline = time.monotonic() + INJECT_WAIT_S
         while time.monotonic() < deadline:  # (it may still be starting)
             for reply in self.session.get(
