@@ -230,12 +230,20 @@ class Agent:
 
     def _apply_pending(self) -> None:
         """Body calls kept while the lock was busy (`_on_body`); the lock is held."""
+        robot: Any = self.robot
         while self._pending:
             req = self._pending.popleft()
+            waiting = getattr(robot, "_loaded", None) is not None  # its task takes the bin
+            before = robot.current
             try:
                 self._serve_body(req)
             except (KeyError, TypeError, ValueError) as exc:
                 log.warning("a kept body call failed: %s", exc)
+            if not waiting and robot.current is not None and robot.current is not before:
+                # it had stopped waiting: the hand-over becomes a task to carry, queued
+                robot.queue.appendleft(robot.current)
+                robot.current = None
+            robot.wake()
 
     def _serve_body(self, req: dict[str, Any]) -> dict[str, Any]:
         if req.get("op") == "look":

@@ -226,12 +226,16 @@ class WorldService:
             self.seen[name] = (t, float(p[0]), float(p[1]))
 
     def note_heard(self, name: str, pos: tuple[float, float] | None = None) -> None:
-        """Mission control heard a message from `name` (with a position: a heartbeat)."""
-        with self._lock:
-            now = self.clock.now()
-            self.heard[name] = now
-            if pos is not None:
-                self._saw(name, now, pos)
+        """Mission control heard a message from `name` (with a position: a heartbeat).
+
+        Called on Zenoh's subscriber thread: it takes no lock (the query handler holds the
+        world's lock while it publishes events; a subscriber waiting for that lock stalled
+        the world service, every agent waiting for an answer). Two dict writes: at worst a
+        position a moment older is kept."""
+        now = self.clock.now()
+        self.heard[name] = now
+        if pos is not None:
+            self._saw(name, now, pos)
 
     def robot_lost(self, name: str) -> int:
         """`name` died (SIGKILL, a crash, silence): as `Robot.fail` → `drop_loads` in the
