@@ -292,7 +292,9 @@ class Agent:
         """The operator's console: mission control asks it to auction an operator task."""
         task = decode_inject(query.payload.to_bytes() if query.payload is not None else b"")
         reply: dict[str, Any] = {"ok": False, "error": "malformed operator task"}
-        if task is not None and self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
+        if task is not None and not self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
+            reply = {"ok": False, "error": "busy"}  # mission control asks again
+        elif task is not None:
             try:
                 rec = self.robot.house.open(
                     task.task_type, (task.x, task.y), task.task_id, kind="operator"

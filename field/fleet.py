@@ -201,7 +201,8 @@ class Fleet:
                 rep = decode_json(reply.ok.payload.to_bytes())
                 if rep is not None and rep.get("ok"):
                     return str(rep["value"]["auction_id"])
-                raise ValueError(f"inject_task: refused by the operator console: {rep}")
+                if rep is None or rep.get("error") != "busy":
+                    raise ValueError(f"inject_task: refused by the operator console: {rep}")
             time.sleep(0.1)
         raise ValueError("inject_task: the operator console did not answer")
 
