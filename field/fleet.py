@@ -245,6 +245,8 @@ class Fleet:
                     del self._settled[name]  # an agent elsewhere is back: it may die again
                 if name in self.procs or name in self._settled or now - heard < timeout:
                     continue
+                if self.operator is not None and name == OPERATOR:
+                    continue  # this fleet's own console carries nothing
                 if not self._answers(name):
                     self._lost(name)
 
