@@ -14,6 +14,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -120,6 +121,8 @@ class WorldService:
         self.heard: dict[str, float] = {}  # robot -> mission time it was last heard
         self.queries = 0
         self._lock = threading.Lock()
+        self._flush_lock = threading.Lock()
+        self._outbox: deque[bytes] = deque()
         self._session = session
         self._on_event = on_event
         self._events_pub = session.declare_publisher(event_key(mission, "world"))
@@ -127,10 +130,17 @@ class WorldService:
         self._queryable = session.declare_queryable(world_key(mission), self._on_query)
 
     def _publish_event(self, ev: Any) -> None:
+        """Recorded now (the world's lock is held), published by `_flush` once it is not:
+        a Zenoh put while holding the lock every query waits for can stall the service."""
         data = {"kind": "event", "t": ev.t, "event": ev.kind, "data": ev.data, "by": "world"}
         if self._on_event is not None:
             self._on_event(data)
-        self._events_pub.put(encode_json(data))
+        self._outbox.append(encode_json(data))
+
+    def _flush(self) -> None:
+        with self._flush_lock:  # one publisher at a time, in the order they happened
+            while self._outbox:
+                self._events_pub.put(self._outbox.popleft())
 
     def _on_query(self, query: Any) -> None:
         payload = query.payload.to_bytes() if query.payload is not None else b""
@@ -146,6 +156,7 @@ class WorldService:
             log.warning("world query refused: %s", exc)
             reply = {"ok": False, "error": str(exc)[:200]}
         query.reply(query.key_expr, encode_json(reply))
+        self._flush()
 
     # --- the operations -------------------------------------------------------------------
     def handle(self, op: str, a: dict[str, Any]) -> Any:
@@ -244,7 +255,9 @@ class WorldService:
         digging has no worker any more. The excavators' ground-mineral auctions and the
         recovery transports of its peers take it from there. Idempotent; the number dropped."""
         with self._lock:
-            return self._settle(name)
+            n = self._settle(name)
+        self._flush()
+        return n
 
     def _settle(self, name: str) -> int:
         n = self.loads.pop(name, 0)
