@@ -15,6 +15,7 @@ import dataclasses
 import logging
 import threading
 import time
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -25,7 +26,7 @@ from engine.context import MissionContext
 from engine.messages import Heartbeat, Hello, Message
 from engine.mission import make_planner
 from engine.policies import POLICIES, make_policy
-from engine.robots import Excavator, Hauler, Robot, Scout
+from engine.robots import Excavator, Hauler, Operator, Robot, Scout
 from engine.scenario import Scenario
 from engine.spiral import spiral_routes
 from engine.world import generate_world
@@ -35,9 +36,11 @@ from field.wire import (
     body_key,
     check_segment,
     command_key,
+    decode_inject,
     decode_json,
     encode_json,
     event_key,
+    operator_key,
     world_key,
 )
 from field.world_service import MissionClock
@@ -47,6 +50,12 @@ _CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hau
 QUERY_TIMEOUT_S = 2.0
 """How long (wall) a query to the world service or a peer may take; past it, no answer."""
 MISSION_CONTROL_GONE_S = 10.0
+
+
+def _moves_a_mineral(req: dict[str, Any]) -> bool:
+    """A body call that moves a mineral from the caller to this robot (a hand-over)."""
+    args = req.get("args")
+    return req.get("op") == "call" and isinstance(args, dict) and args.get("method") == "receive"
 
 
 class AgentError(RuntimeError):
@@ -83,6 +92,7 @@ class Agent:
         self.step = 0
         self.lock = threading.Lock()
         self.stopped = threading.Event()
+        self._pending: deque[dict[str, Any]] = deque()  # body calls kept for the clock loop
         self.session = open_session(listen=listen, connect=connect)
         spawn = self._spawn()
         if speed is not None and abs(speed - spawn["speed"]) > 1e-9:
@@ -120,13 +130,15 @@ class Agent:
         )
         rtype, roster = spawn["rtype"], dict(spawn["roster"])
         pos = (float(spawn["pos"][0]), float(spawn["pos"][1]))
-        speed_mps = getattr(scenario.speeds, rtype)
-        if rtype == "scout":
+        speed_mps = getattr(scenario.speeds, rtype, 1.0)
+        if rtype == "operator":  # the operator's console: auctions operator tasks
+            robot: Robot = Operator(name, ctx, pos, 1.0)
+        elif rtype == "scout":
             routes = {
                 f"scout-{i + 1}": r
                 for i, r in enumerate(spiral_routes(world.grid, world.plant, scenario.team.scouts))
             }
-            robot: Robot = Scout(name, ctx, pos, speed_mps, routes)
+            robot = Scout(name, ctx, pos, speed_mps, routes)
         else:
             robot = _CLASSES[rtype](name, ctx, pos, speed_mps)
         self.robot = robot
@@ -140,13 +152,23 @@ class Agent:
         robot.peers = roster
         self._body = self.session.declare_queryable(body_key(mission, name), self._on_body)
         self._commands = self.session.declare_subscriber(command_key(mission), self._on_command)
+        self._tasks = (
+            self.session.declare_queryable(operator_key(mission), self._on_task)
+            if rtype == "operator"
+            else None
+        )
         robot.start(joined_late=bool(spawn["joined_late"]))
 
     # --- queries ----------------------------------------------------------------------------
     def _ask(self, key: str, req: dict[str, Any]) -> dict[str, Any] | None:
-        for reply in self.session.get(key, payload=encode_json(req), timeout=QUERY_TIMEOUT_S):
-            if reply.ok is not None:
-                return decode_json(reply.ok.payload.to_bytes())
+        try:
+            replies = self.session.get(key, payload=encode_json(req), timeout=QUERY_TIMEOUT_S)
+            for reply in replies:
+                if reply.ok is not None:
+                    return decode_json(reply.ok.payload.to_bytes())
+        except Exception:  # the session closed under a robot still running at shutdown
+            if not self.stopped.is_set():
+                raise
         return None
 
     def _spawn(self) -> dict[str, Any]:
@@ -194,7 +216,34 @@ class Agent:
                 reply = {"ok": False, "error": str(exc)[:200]}
             finally:
                 self.lock.release()
+        elif req is not None and _moves_a_mineral(req):
+            # the caller has emptied its bucket already and goes on whatever I answer: the
+            # mineral must reach my bin, so the call is kept for the clock loop to apply as
+            # soon as it holds the lock (refusing it for a busy lock lost the mineral)
+            log.warning("%s: busy; a hand-over kept for the clock loop", self.name)
+            self._pending.append(req)
+            self.bus.inbox.ready.set()
+            reply = {"ok": True, "value": None}
+        else:
+            reply = {"ok": False, "error": "busy"}
         query.reply(query.key_expr, encode_json(reply))
+
+    def _apply_pending(self) -> None:
+        """Body calls kept while the lock was busy (`_on_body`); the lock is held."""
+        robot: Any = self.robot
+        while self._pending:
+            req = self._pending.popleft()
+            waiting = getattr(robot, "_loaded", None) is not None  # its task takes the bin
+            before = robot.current
+            try:
+                self._serve_body(req)
+            except (KeyError, TypeError, ValueError) as exc:
+                log.warning("a kept body call failed: %s", exc)
+            if not waiting and robot.current is not None and robot.current is not before:
+                # it had stopped waiting: the hand-over becomes a task to carry, queued
+                robot.queue.appendleft(robot.current)
+                robot.current = None
+            robot.wake()
 
     def _serve_body(self, req: dict[str, Any]) -> dict[str, Any]:
         if req.get("op") == "look":
@@ -213,6 +262,9 @@ class Agent:
             value = serve_call(self.robot, stand_in, method, args)
         finally:
             stand_in.override = None
+        if method == "receive":  # the caller's bucket is in my bin now: the world records it
+            x, y = self.robot.pos
+            self.ask_world("handover", by=self.name, src=caller["name"], x=x, y=y)
         self.step += 1
         return {"ok": True, "value": value if isinstance(value, bool | None) else None}
 
@@ -235,6 +287,23 @@ class Agent:
                 self.robot.policy_changed()
         else:
             log.warning("dropped an unknown command %r", cmd.get("cmd"))
+
+    def _on_task(self, query: Any) -> None:
+        """The operator's console: mission control asks it to auction an operator task."""
+        task = decode_inject(query.payload.to_bytes() if query.payload is not None else b"")
+        reply: dict[str, Any] = {"ok": False, "error": "malformed operator task"}
+        if task is not None and not self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
+            reply = {"ok": False, "error": "busy"}  # mission control asks again
+        elif task is not None:
+            try:
+                rec = self.robot.house.open(
+                    task.task_type, (task.x, task.y), task.task_id, kind="operator"
+                )
+                reply = {"ok": True, "value": {"auction_id": rec.id}}
+                self.bus.inbox.ready.set()  # the clock loop: its announcement is due now
+            finally:
+                self.lock.release()
+        query.reply(query.key_expr, encode_json(reply))
 
     def report(self, data: dict[str, Any]) -> None:
         """An event or auction record for mission control (robots never read these)."""
@@ -261,6 +330,7 @@ class Agent:
         while not self.stopped.is_set():
             with self.lock:
                 bus.inbox.ready.clear()
+                self._apply_pending()
                 t = clock.now()
                 while env.peek() <= t:
                     env.step()

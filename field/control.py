@@ -19,7 +19,8 @@ from typing import Any
 from engine.errors import CommandRejected, UnknownRobotError
 from engine.events import Event
 from engine.geometry import point_along
-from engine.policies import resolve_policy
+from engine.policies import POLICIES, resolve_policy
+from engine.robots.scout import site_task_id
 from engine.scenario import Scenario
 from field.fleet import Fleet
 
@@ -59,7 +60,7 @@ class FieldMission:
         self._seen_auctions: set[str] = set()
         self._closed = False
         self._lock = threading.Lock()
-        self.fleet.up()
+        self.fleet.up(operator=True)
 
     # --- what the runner reads --------------------------------------------------------------
     @property
@@ -249,6 +250,10 @@ class FieldMission:
             name = resolve_policy(policy)
         except ValueError as exc:
             raise CommandRejected(str(exc)) from None
+        if not POLICIES[name].decentralized:  # as at creation (app check_field)
+            raise CommandRejected(
+                f"policy: {name} is centralized; field mode runs decentralized ones"
+            )
         self._record("set_policy", policy=name)
         old = self.policy
         self.fleet.set_policy(name)
@@ -291,7 +296,50 @@ class FieldMission:
         return name
 
     def inject_task(self, task_type: str = "excavate", location: Any = ()) -> str:
-        raise CommandRejected("inject_task: not available in field mode (no operator robot)")
+        """As `engine.Mission.inject_task` (the same checks, the same snapping to a known site,
+        the same action and event), but the auction is run by the operator's console, an
+        agent process of its own, which mission control asks over the wire (`InjectTask`)."""
+        self._check_running()
+        if task_type not in ("excavate", "transport"):
+            raise CommandRejected("type: must be 'excavate' or 'transport'")
+        x, y = self._free_point(tuple(location), "location")
+        task_id = f"{task_type}@{x:.3f},{y:.3f}"
+        if task_type == "excavate":
+            # snap to a site the robots know of, so the operator can point roughly at one
+            near = [
+                s
+                for s in self.fleet.world.field.sites
+                if s.found_at is not None
+                and math.hypot(s.x - x, s.y - y) <= self.scenario.scan_radius
+            ]
+            if near:
+                s = min(near, key=lambda s: (math.hypot(s.x - x, s.y - y), s.id))
+                x, y, task_id = s.x, s.y, site_task_id(s.x, s.y)
+        try:
+            auction_id = self.fleet.inject(task_type, (x, y), task_id)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
+        self._record("inject_task", type=task_type, location=[x, y])
+        self._emit(
+            self.now,
+            "task_injected",
+            {"auction_id": auction_id, "task_type": task_type, "x": x, "y": y},
+        )
+        return auction_id
+
+    def _free_point(self, p: tuple[Any, ...], field: str) -> tuple[float, float]:
+        """`engine.Mission._free_point`: two finite numbers, inside the area, not in a crater."""
+        if len(p) != 2 or not all(isinstance(v, int | float) and math.isfinite(v) for v in p):
+            raise CommandRejected(f"{field}: must be two finite numbers [x, y]")
+        x, y = float(p[0]), float(p[1])
+        w = self.world
+        if not (0 <= x <= w.width and 0 <= y <= w.height):
+            raise CommandRejected(
+                f"{field}: ({x:g}, {y:g}) is outside the area 0..{w.width:g} × 0..{w.height:g}"
+            )
+        if not w.is_free(x, y):
+            raise CommandRejected(f"{field}: ({x:g}, {y:g}) lies in a crater")
+        return x, y
 
     def robot(self, name: str) -> Any:
         if name not in self.fleet.procs:

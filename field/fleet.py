@@ -17,14 +17,31 @@ import sys
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from engine.messages import Heartbeat
+from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from field.transport import open_session
-from field.wire import PREFIX, command_key, decode, decode_json, encode_json, messages_selector
+from field.wire import (
+    PREFIX,
+    InjectTask,
+    body_key,
+    command_key,
+    decode,
+    decode_json,
+    encode_json,
+    messages_selector,
+    operator_key,
+)
 from field.world_service import WorldService
+
+REALISM = ("energy", "docks", "uncertainty", "radio")
+"""The scenario's realism options (docs/model.md); field mode runs none of them."""
+INJECT_WAIT_S = 10.0
+"""How long (wall) mission control waits for the operator's console to take a task."""
 
 
 def free_port() -> int:
@@ -53,6 +70,7 @@ class Recorder:
     heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
     auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
+    on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
 
     def on_message(self, sample: Any) -> None:
         msg = decode(sample.payload.to_bytes())
@@ -65,6 +83,8 @@ class Recorder:
             self.by_type[kind] = self.by_type.get(kind, 0) + 1
             if isinstance(msg, Heartbeat):
                 self.heartbeats[msg.sender] = msg
+        if self.on_heard is not None:
+            self.on_heard(msg.sender, (msg.x, msg.y) if isinstance(msg, Heartbeat) else None)
 
     def on_report(self, sample: Any) -> None:
         data = decode_json(sample.payload.to_bytes())
@@ -74,7 +94,8 @@ class Recorder:
             if data.get("kind") == "auction" and isinstance(data.get("record"), dict):
                 rec = data["record"]
                 self.auctions[str(rec.get("id"))] = rec
-            elif data.get("kind") == "event":
+            elif data.get("kind") == "event" and data.get("by") != "world":
+                # (the world service's own events come in by `on_world_event`, once)
                 self.events.append(data)
 
     def on_world_event(self, data: dict[str, Any]) -> None:
@@ -93,8 +114,12 @@ class Fleet:
         mission: str | None = None,
         listen_host: str = "127.0.0.1",
     ) -> None:
-        if scenario.energy.enabled or scenario.docks.enabled or scenario.radio.enabled:
-            raise ValueError("scenario: field mode runs without the realism options")
+        on = [o for o in REALISM if getattr(scenario, o).enabled]
+        if on:  # (the agents build their robots without them)
+            raise ValueError(
+                f"scenario.{on[0]}: field mode runs without the realism options "
+                f"({', '.join(REALISM)})"
+            )
         self.mission = mission or f"m{uuid.uuid4().hex[:10]}"
         self.port = port or free_port()
         self.endpoint = f"tcp/{listen_host}:{self.port}"
@@ -112,9 +137,15 @@ class Fleet:
         self.world = WorldService(
             self.session, self.mission, scenario, seed, policy, speed, self.recorder.on_world_event
         )
+        self.recorder.on_heard = self.world.note_heard
         self.procs: dict[str, Proc] = {}
         self.history: list[Proc] = []
+        self.operator: Proc | None = None
         self._counts: dict[str, int] = dict.fromkeys(ROBOT_TYPES, 0)
+        self._settled: dict[str, float] = {}  # dead robots settled, and when (mission time)
+        self._closing = threading.Event()
+        self._watcher = threading.Thread(target=self._watch, name="fleet-deaths", daemon=True)
+        self._watcher.start()
 
     def now(self) -> float:
         return self.world.clock.now()
@@ -122,6 +153,13 @@ class Fleet:
     def spawn(self, name: str) -> Proc:
         rtype = name.rsplit("-", 1)[0]
         self._counts[rtype] = max(self._counts.get(rtype, 0), int(name.rsplit("-", 1)[1]))
+        proc = Proc(name, self._start(name), self.now())
+        self.procs[name] = proc
+        self.history.append(proc)
+        self._settled.pop(name, None)
+        return proc
+
+    def _start(self, name: str) -> subprocess.Popen[bytes]:
         cmd = [
             sys.executable,
             "-m",
@@ -134,17 +172,39 @@ class Fleet:
             "--connect",
             self.endpoint,
         ]
-        popen = subprocess.Popen(  # its own process group: killed as a whole
+        return subprocess.Popen(  # its own process group: killed as a whole
             cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=None
         )
-        proc = Proc(name, popen, self.now())
-        self.procs[name] = proc
-        self.history.append(proc)
-        return proc
 
-    def up(self) -> None:
+    def up(self, operator: bool = False) -> None:
+        """One agent per robot of the roster and, with `operator`, the operator's console (an
+        agent with no body that auctions operator tasks: `inject`)."""
+        if operator:
+            self.operator = Proc(OPERATOR, self._start(OPERATOR), self.now())
         for name in self.world.roster:
             self.spawn(name)
+
+    def inject(self, task_type: str, p: tuple[float, float], task_id: str) -> str:
+        """Have the operator's console auction a task; its auction's id. ValueError when the
+        console does not answer (not started, or gone)."""
+        if self.operator is None or self.operator.popen.poll() is not None:
+            raise ValueError("inject_task: this field mission has no operator console")
+        fields = {"task_type": task_type, "x": p[0], "y": p[1], "task_id": task_id}
+        req = InjectTask.model_validate({"v": 1, "cmd": "inject_task", **fields})
+        deadline = time.monotonic() + INJECT_WAIT_S
+        while time.monotonic() < deadline:  # (it may still be starting)
+            for reply in self.session.get(
+                operator_key(self.mission), payload=req.model_dump_json().encode(), timeout=2.0
+            ):
+                if reply.ok is None:
+                    continue
+                rep = decode_json(reply.ok.payload.to_bytes())
+                if rep is not None and rep.get("ok"):
+                    return str(rep["value"]["auction_id"])
+                if rep is None or rep.get("error") != "busy":
+                    raise ValueError(f"inject_task: refused by the operator console: {rep}")
+            time.sleep(0.1)
+        raise ValueError("inject_task: the operator console did not answer")
 
     def add(self, rtype: str) -> str:
         if rtype not in ROBOT_TYPES:
@@ -162,6 +222,41 @@ class Fleet:
             os.killpg(proc.popen.pid, signal.SIGKILL)
         proc.popen.wait()
         proc.killed_at = self.now()
+        self._lost(name)
+
+    # --- deaths -------------------------------------------------------------------------------
+    def _lost(self, name: str) -> None:
+        if name not in self._settled:
+            self._settled[name] = self.now()
+            self.world.robot_lost(name)
+
+    def _watch(self) -> None:
+        """Notice dead robots and settle them (`WorldService.robot_lost`): an agent process of
+        this fleet that exited, or any robot silent for the protocol's failure timeout whose
+        body does not answer a look (an agent on another machine)."""
+        timeout = self.world.scenario.protocol.failure_timeout_s
+        while not self._closing.wait(0.1):
+            for name, proc in list(self.procs.items()):
+                if proc.popen.poll() is not None and not self._closing.is_set():
+                    self._lost(name)
+            now = self.now()
+            for name, heard in list(self.world.heard.items()):
+                if name in self._settled and heard > self._settled[name] and name not in self.procs:
+                    del self._settled[name]  # an agent elsewhere is back: it may die again
+                if name in self.procs or name in self._settled or now - heard < timeout:
+                    continue
+                if self.operator is not None and name == OPERATOR:
+                    continue  # this fleet's own console carries nothing
+                if not self._answers(name):
+                    self._lost(name)
+
+    def _answers(self, name: str) -> bool:
+        req = encode_json({"op": "look", "args": {}, "caller": {"name": "mission-control"}})
+        with contextlib.suppress(Exception):
+            for reply in self.session.get(body_key(self.mission, name), payload=req, timeout=2.0):
+                if reply.ok is not None:
+                    return True
+        return False
 
     def set_policy(self, policy: str) -> None:
         self.world.policy = policy
@@ -171,13 +266,16 @@ class Fleet:
 
     def close(self) -> None:
         """Stop every agent (asked first, then SIGKILL to any group still there)."""
+        self._closing.set()
+        self._watcher.join(timeout=5.0)
         with contextlib.suppress(Exception):
             self.session.put(command_key(self.mission), encode_json({"cmd": "stop"}))
         deadline = time.monotonic() + 3.0
-        for proc in self.history:
+        everyone = [*self.history, *([self.operator] if self.operator else [])]
+        for proc in everyone:
             with contextlib.suppress(subprocess.TimeoutExpired):
                 proc.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
-        for proc in self.history:
+        for proc in everyone:
             if proc.popen.poll() is None:
                 with contextlib.suppress(ProcessLookupError):
                     os.killpg(proc.popen.pid, signal.SIGKILL)

@@ -23,6 +23,7 @@ class Asker(Protocol):
     """The agent's query functions (field.agent.Agent)."""
 
     step: int
+    name: str
 
     def ask_world(self, op: str, **args: Any) -> Any: ...
 
@@ -45,7 +46,8 @@ class RemoteSite:
         return None if d is None else d[key]
 
     def _set(self, key: str, value: Any) -> None:
-        self._asker.ask_world("site_set", id=self.id, **{key: value})
+        # `by`: a pile that shrinks went into the setter's bucket (the world's record of loads)
+        self._asker.ask_world("site_set", id=self.id, by=self._asker.name, **{key: value})
 
     remaining = property(lambda s: s._get("remaining") or 0, lambda s, v: s._set("remaining", v))
     # (None only when the agent is stopping: the world service is asked until it answers)

@@ -48,6 +48,30 @@ class Envelope(BaseModel):
     body: dict[str, Any]
 
 
+class InjectTask(BaseModel):
+    """An operator task (`POST /missions/{id}/tasks` on a field mission), sent by mission
+    control as a query to the operator console's agent (`operator_key`), which auctions it
+    like any robot's task and replies with the auction's id. Mission control has checked the
+    place (inside the area, not in a crater) and snapped an excavation to a known site."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    v: Literal[1]  # VERSION
+    cmd: Literal["inject_task"]
+    task_type: Literal["excavate", "transport"]
+    x: Annotated[float, Field(allow_inf_nan=False)]
+    y: Annotated[float, Field(allow_inf_nan=False)]
+    task_id: Annotated[str, Field(min_length=1, max_length=128)]
+
+
+def decode_inject(payload: bytes) -> InjectTask | None:
+    """An operator task, or None (logged) if the payload is not a valid one."""
+    try:
+        return InjectTask.model_validate_json(payload)
+    except (ValueError, ValidationError) as exc:
+        log.warning("dropped a malformed operator task: %s", _short(exc))
+        return None
+
+
 def check_segment(value: str, what: str) -> str:
     """A mission id or robot name must be one key segment (no '/', '*', '$', spaces)."""
     if not _SEGMENT.match(value):
@@ -77,6 +101,11 @@ def world_key(mission: str) -> str:
 def body_key(mission: str, name: str) -> str:
     """A robot's physical body: what a robot standing beside it can see and do with it."""
     return f"{PREFIX}/{mission}/body/{name}"
+
+
+def operator_key(mission: str) -> str:
+    """The operator console's queryable: operator tasks to auction (`InjectTask`)."""
+    return f"{PREFIX}/{mission}/operator"
 
 
 def command_key(mission: str) -> str:

@@ -14,6 +14,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -24,6 +25,7 @@ from engine.field import Field, SiteState
 from engine.geometry import dist, first_entry
 from engine.observer import Observer
 from engine.policies import resolve_policy
+from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.world import World, generate_world
 from field.wire import decode_json, encode_json, event_key, world_key
@@ -114,8 +116,13 @@ class WorldService:
         self.roster: dict[str, str] = {n: n.rsplit("-", 1)[0] for n in names}
         self.starts = dict(zip(names, starts, strict=True))
         self.spawned: dict[str, int] = {}
+        self.loads: dict[str, int] = {}  # minerals on board, by robot (bucket or bin)
+        self.seen: dict[str, tuple[float, float, float]] = {}  # robot -> (t, x, y) last heard
+        self.heard: dict[str, float] = {}  # robot -> mission time it was last heard
         self.queries = 0
         self._lock = threading.Lock()
+        self._flush_lock = threading.Lock()
+        self._outbox: deque[bytes] = deque()
         self._session = session
         self._on_event = on_event
         self._events_pub = session.declare_publisher(event_key(mission, "world"))
@@ -123,10 +130,17 @@ class WorldService:
         self._queryable = session.declare_queryable(world_key(mission), self._on_query)
 
     def _publish_event(self, ev: Any) -> None:
+        """Recorded now (the world's lock is held), published by `_flush` once it is not:
+        a Zenoh put while holding the lock every query waits for can stall the service."""
         data = {"kind": "event", "t": ev.t, "event": ev.kind, "data": ev.data, "by": "world"}
         if self._on_event is not None:
             self._on_event(data)
-        self._events_pub.put(encode_json(data))
+        self._outbox.append(encode_json(data))
+
+    def _flush(self) -> None:
+        with self._flush_lock:  # one publisher at a time, in the order they happened
+            while self._outbox:
+                self._events_pub.put(self._outbox.popleft())
 
     def _on_query(self, query: Any) -> None:
         payload = query.payload.to_bytes() if query.payload is not None else b""
@@ -142,6 +156,7 @@ class WorldService:
             log.warning("world query refused: %s", exc)
             reply = {"ok": False, "error": str(exc)[:200]}
         query.reply(query.key_expr, encode_json(reply))
+        self._flush()
 
     # --- the operations -------------------------------------------------------------------
     def handle(self, op: str, a: dict[str, Any]) -> Any:
@@ -167,11 +182,14 @@ class WorldService:
             ]
         if op == "site_set":
             s = self._site(a["id"])
+            before = s.remaining
             for key in ("remaining", "worker", "last_worker"):
                 if key in a:
                     setattr(s, key, a[key])
             if "remaining" in a:
                 self.observer.progress_at = self.clock.now()
+                if "by" in a and s.remaining < before:  # dug: out of the pile, into the bucket
+                    self._hold(str(a["by"]), before - s.remaining, (s.x, s.y))
             return site_dict(s)
         if op == "found":
             f.note_site_found(self._site(a["id"]), str(a["by"]))
@@ -182,20 +200,85 @@ class WorldService:
         if op == "ground":
             return [self._ground_dict(g) for g in f.ground]
         if op == "drop":
-            f.drop_mineral((float(a["x"]), float(a["y"])), str(a["by"]))
+            p = (float(a["x"]), float(a["y"]))
+            self._hold(str(a["by"]), -1, p)
+            f.drop_mineral(p, str(a["by"]))
             return None
         if op == "pick":
             g = next((g for g in f.ground if g.id == a["id"]), None)
             if g is None:
                 return False
             f.pick_ground(g, str(a["by"]))
+            self._hold(str(a["by"]), 1, (g.x, g.y))
             return True
+        if op == "handover":  # an excavator emptied its bucket into this hauler's bin
+            p = (float(a["x"]), float(a["y"]))
+            self._hold(str(a["src"]), -1, p)
+            self._hold(str(a["by"]), 1, p)
+            return None
         if op == "deliver":
+            self._hold(str(a["by"]), -1, self.world.plant)
             f.note_delivery(str(a["by"]))
             return None
         if op == "status":
             return self.status()
         raise ValueError(f"op: unknown operation {op!r}")
+
+    # --- what each robot carries, and a robot's death ------------------------------------------
+    def _hold(self, name: str, n: int, p: tuple[float, float]) -> None:
+        """`name` took on (n > 0) or let go of (n < 0) minerals at p: the world's record of its
+        bucket or bin, kept from the operations that move a mineral (dig, hand-over, pick-up,
+        drop, delivery), each one query, so a mineral is always in exactly one place here."""
+        self.loads[name] = max(0, self.loads.get(name, 0) + n)
+        self._saw(name, self.clock.now(), p)
+
+    def _saw(self, name: str, t: float, p: tuple[float, float]) -> None:
+        if t >= self.seen.get(name, (-math.inf, 0.0, 0.0))[0]:
+            self.seen[name] = (t, float(p[0]), float(p[1]))
+
+    def note_heard(self, name: str, pos: tuple[float, float] | None = None) -> None:
+        """Mission control heard a message from `name` (with a position: a heartbeat).
+
+        Called on Zenoh's subscriber thread: it takes no lock (the query handler holds the
+        world's lock while it publishes events; a subscriber waiting for that lock stalled
+        the world service, every agent waiting for an answer). Two dict writes: at worst a
+        position a moment older is kept."""
+        now = self.clock.now()
+        self.heard[name] = now
+        if pos is not None:
+            self._saw(name, now, pos)
+
+    def robot_lost(self, name: str) -> int:
+        """`name` died (SIGKILL, a crash, silence): as `Robot.fail` → `drop_loads` in the
+        engine, what it carried falls to the ground where it was last heard of (a heartbeat's
+        position, or where it last took a mineral on, whichever is later) and a site it was
+        digging has no worker any more. The excavators' ground-mineral auctions and the
+        recovery transports of its peers take it from there. Idempotent; the number dropped."""
+        with self._lock:
+            n = self._settle(name)
+        self._flush()
+        return n
+
+    def _settle(self, name: str) -> int:
+        n = self.loads.pop(name, 0)
+        _t, x, y = self.seen.get(name, (0.0, *self.starts.get(name, self.world.plant)))
+        for _ in range(n):
+            self.field.drop_mineral((x, y), name)
+        for s in self.field.sites:
+            if s.worker == name:
+                s.worker = None
+        return n
+
+    def minerals_in(self) -> dict[str, int]:
+        """Where every mineral is, read at one instant: they add up to the total."""
+        with self._lock:
+            f = self.field
+            return {
+                "sites": sum(s.remaining for s in f.sites),
+                "aboard": sum(self.loads.values()),
+                "ground": len(f.ground),
+                "delivered": f.delivered,
+            }
 
     def _site(self, site_id: Any) -> SiteState:
         for s in self.field.sites:
@@ -208,12 +291,16 @@ class WorldService:
         return {"id": g.id, "x": g.x, "y": g.y, "dropped_at": g.dropped_at}
 
     def _spawn(self, name: str) -> dict[str, Any]:
-        rtype = name.rsplit("-", 1)[0]
-        if rtype not in ROBOT_TYPES:
+        rtype = "operator" if name == OPERATOR else name.rsplit("-", 1)[0]
+        if rtype not in (*ROBOT_TYPES, "operator"):
             raise ValueError(f"name: {name!r} must be scout-N, excavator-N or hauler-N")
         times = self.spawned.get(name, 0)
         self.spawned[name] = times + 1
+        if times:  # a new life: its last one ended, settled or not yet (the lock is held)
+            self._settle(name)
         pos = self.starts.get(name) or start_positions(self.world, self.scenario.start_spread, 1)[0]
+        if rtype == "operator":  # the operator's console: an auctioneer with no body
+            pos = self.world.plant
         return {
             "rtype": rtype,
             "pos": list(pos),
@@ -235,6 +322,7 @@ class WorldService:
             "sites_found": f.sites_found,
             "sites_total": len(f.sites),
             "ground": len(f.ground),
+            "aboard": sum(self.loads.values()),
             "sites_remaining": sum(s.remaining for s in f.sites),
             "scanned": f.scanned_count,
             "finished": f.finished.triggered,

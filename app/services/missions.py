@@ -34,6 +34,14 @@ def speed_value(speed: Speed) -> float | None:
     return None if speed == "max" else float(speed)
 
 
+def realism_option(scenario: Scenario) -> str | None:
+    """The first realism option a scenario turns on (field mode runs none of them)."""
+    for option in ("energy", "docks", "uncertainty", "radio"):
+        if getattr(scenario, option).enabled:
+            return option
+    return None
+
+
 def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> None:
     """What a field mission needs: a wall-clock speed, no pause, a decentralized policy and
     none of the realism options (docs/field.md)."""
@@ -45,8 +53,13 @@ def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> 
         raise Invalid(
             f"policy: {policy} is centralized; field mode runs decentralized ones", ("policy",)
         )
-    if scenario.energy.enabled or scenario.docks.enabled or scenario.radio.enabled:
-        raise Invalid("scenario: field mode runs without the realism options", ("scenario",))
+    option = realism_option(scenario)
+    if option is not None:
+        raise Invalid(
+            f"scenario.{option}: field mode runs without the realism options "
+            "(energy, docks, uncertainty, radio)",
+            ("scenario", option),
+        )
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,8 @@
 """A field mission (every robot its own process over Zenoh) on the dashboard, like a simulated
 one: twelve robots on the map moving, counters rising, an operator SIGKILL of a hauler that
 holds a transport shown as a failed robot, its transport re-auctioned to another, a new
-excavator process joining and winning excavations; and all of it in the database's tables
-once the operator stops the mission (docs/field.md). Not run to completion: a hauler killed
-with a mineral on board loses it in field mode (docs/field.md, known defects)."""
+excavator process joining and winning excavations, the mission run to completion at 50×; and
+all of it in the database's tables: every mineral delivered (docs/field.md)."""
 
 from __future__ import annotations
 
@@ -16,7 +15,7 @@ import pytest
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog, Server
-from tests.e2e.test_dashboard import Start, open_live, wait_for
+from tests.e2e.test_dashboard import Start, free_point, open_live, wait_for
 from tests.field.serial import one_field_mission_at_a_time
 
 
@@ -61,6 +60,21 @@ def _field_mission_on_the_dashboard(
     assert res.status_code in (200, 201), res.text
     newcomer = res.json()["name"]
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=30_000)
+    # an operator task, as in a simulated mission: checked (422 naming the field), then
+    # auctioned by the operator's console (its own agent process), asked over the wire
+    res = api.post(f"/missions/{mid}/tasks", json={"type": "transport", "location": [-5, 10]})
+    assert res.status_code == 422 and "location" in res.text, res.text
+    x, y = free_point(page)
+    res = api.post(f"/missions/{mid}/tasks", json={"type": "transport", "location": [x, y]})
+    assert res.status_code == 201, res.text
+    injected = res.json()["auction_id"]
+    assert injected.startswith("operator/")
+    wait_for(  # a hauler wins it (and finds nothing there to carry: a void transport)
+        page,
+        f"""window.__regolith.auctions.some(a => a.id === '{injected}' && a.kind === 'operator'
+            && a.status === 'closed' && (a.allocated_to || '').startsWith('hauler-'))""",
+        timeout=60,
+    )
     # the victim's transport is re-auctioned (its peers notice the silence) and won by another
     wait_for(
         page,
@@ -74,9 +88,14 @@ def _field_mission_on_the_dashboard(
             && a.status === 'closed' && a.allocated_to === '{newcomer}')""",
         timeout=90,
     )
+    # to the end: every mineral delivered, the killed hauler's load (if it had one) too
+    wait_for(page, "window.__regolith.status !== 'running'", timeout=180)
     assert console.errors == []
-    assert api.post(f"/missions/{mid}/stop").status_code in (200, 204, 409)
-    wait_for(page, "window.__regolith.status !== 'running'", timeout=30)
+    detail = api.get(f"/missions/{mid}").json()
+    assert detail["status"] == "completed", detail
+    m = detail["metrics"]
+    assert m["minerals_delivered"] == m["minerals_total"] == 64, m
+    assert m["sites_found"] == m["sites_total"] == 10, m
 
     # what mission control recorded is in the database, in the same tables as a simulated
     # mission's: the victim's transport re-auctioned to another, the newcomer's excavations
@@ -88,8 +107,18 @@ def _field_mission_on_the_dashboard(
         a["task_type"] == "excavate" and a["allocated_to"] == newcomer and a["status"] == "closed"
         for a in items
     ), (newcomer, [(a["id"], a["allocated_to"]) for a in items if a["task_type"] == "excavate"])
-    events = api.get(f"/missions/{mid}/events", params={"kind": "delivered"}).json()["items"]
-    assert events
+
+    def events(kind: str) -> list[dict[str, object]]:
+        res = api.get(f"/missions/{mid}/events", params={"kind": kind, "limit": 500})
+        return list(res.json()["items"])
+
+    assert len(events("delivered")) == 64  # each delivery recorded once
+    (inj,) = events("task_injected")
+    assert inj["data"]["auction_id"] == injected and inj["data"]["task_type"] == "transport"
+    assert [a["id"] for a in items if a["kind"] == "operator"] == [injected]
+    acts = api.get(f"/missions/{mid}/actions").json()
+    assert [a["kind"] for a in acts].count("inject_task") == 1, acts
+    assert len(events("mineral_dropped")) == len(events("mineral_recovered"))
     # the agents' processes are gone once the mission has ended
     deadline = time.monotonic() + 15
     assert server.proc is not None

@@ -3,10 +3,14 @@ agent process is started for it."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
+
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 
 
 @pytest.mark.parametrize(
@@ -56,3 +60,35 @@ def test_the_api_refuses_a_field_mission_it_cannot_run(
         check_field(reference_scenario(), policy, speed, paused)  # type: ignore[arg-type]
     assert err.value.loc == (loc,) and err.value.status_code == 422
     check_field(reference_scenario(), "nearest", 20.0, False)  # what it accepts
+
+
+@pytest.mark.parametrize("option", ["energy", "docks", "uncertainty", "radio"])
+def test_a_realism_option_is_refused_naming_it(option: str) -> None:
+    """Field mode runs none of the realism options (its agents build their robots without
+    them): the API answers 422 naming the option, before any process starts."""
+    from app.services.errors import Invalid
+    from app.services.missions import check_field
+    from engine.scenario import load_scenario
+
+    scenario = load_scenario(SCENARIOS / "realism" / f"{option}.toml")
+    with pytest.raises(Invalid) as err:
+        check_field(scenario, "nearest", 20.0, False)
+    assert err.value.loc == ("scenario", option) and err.value.status_code == 422
+    assert str(err.value).startswith(f"scenario.{option}: field mode runs without")
+
+
+def test_fleet_run_refuses_uncertain_work() -> None:
+    res = CliRunner().invoke(
+        cli,
+        [
+            "fleet",
+            "run",
+            "--policy",
+            "nearest",
+            "--scenario",
+            str(SCENARIOS / "realism" / "uncertainty.toml"),
+        ],
+    )
+    assert res.exit_code == 2, res.output
+    assert "scenario.uncertainty: field mode runs without the realism options" in res.output
+    assert "Traceback" not in res.output and len(res.output.strip().splitlines()) == 1

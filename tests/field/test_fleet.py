@@ -1,6 +1,8 @@
 """A field mission end to end: mission control and twelve agent processes on 127.0.0.1, the
-reference mission at 100× to completion; one hauler SIGKILLed while it holds a task, a new
-excavator process started mid-mission. Checked on what mission control recorded."""
+reference mission at 100× to completion; one hauler SIGKILLed while it carries a mineral to
+the plant, a new excavator process started mid-mission. Checked on what mission control
+recorded: the mineral fell where the hauler was last heard of, was carried by another, and
+every mineral is accounted for."""
 
 from __future__ import annotations
 
@@ -35,24 +37,21 @@ def _fleet() -> Iterator[Fleet]:
             assert p.popen.poll() is not None, f"{p.name} outlived its fleet"
 
 
-def _holding(fleet: Fleet, robot: str) -> dict[str, Any] | None:
-    """An auction `robot` won in the last 10 s whose task it has not ended (a transport takes
-    far longer, so the kill cannot race its delivery)."""
-    now = fleet.now()
+def _carrying(fleet: Fleet, robot: str) -> dict[str, Any] | None:
+    """The auction of the transport `robot` is carrying a mineral for, if its latest heartbeat
+    (under 5 s old, when it set off for the plant: the trip takes far longer, so the kill
+    cannot race the delivery) says it has one on board."""
     rec = fleet.recorder
     with rec.lock:
-        ended = {
-            e["data"].get("task_id")
-            for e in rec.events
-            if e.get("event") == "task_ended" and e["data"].get("robot") == robot
-        }
+        hb = rec.heartbeats.get(robot)
+        if hb is None or hb.load == 0 or not hb.tasks or fleet.now() - hb.t > 5.0:
+            return None
         won = [
             a
             for a in rec.auctions.values()
             if a["allocated_to"] == robot
             and a["status"] == "closed"
-            and a["task_id"] not in ended
-            and now - (a["closed_at"] or 0.0) < 10.0
+            and a["task_id"] == hb.tasks[0]
         ]
     return won[-1] if won else None
 
@@ -70,10 +69,11 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
         assert time.monotonic() - t0 < WALL_LIMIT_S, f"not finished: {fleet.world.status()}"
         now = fleet.now()
         if killed is None and now >= 400:
-            held = _holding(fleet, "hauler-2")
+            held = _carrying(fleet, "hauler-2")
             if held is not None:
                 fleet.kill("hauler-2")  # SIGKILL: nothing said, peers find out by its silence
                 killed = held
+                assert fleet.world.status()["ground"] >= 1  # its mineral fell where it was
         if added is None and now >= 300:  # sites are still being found until ~1300 s
             added = fleet.add("excavator")
         time.sleep(0.02)
@@ -81,9 +81,19 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     status = fleet.world.status()
     assert status["delivered"] == status["minerals_total"] == 64
     assert status["sites_found"] == status["sites_total"] == 10
-    assert status["ground"] == 0 and status["sites_remaining"] == 0
+    assert status["ground"] == 0 and status["sites_remaining"] == 0 and status["aboard"] == 0
     assert killed is not None and added == "excavator-5"
     time.sleep(0.3)  # the last records in flight
+    # the mineral on board fell to the ground and another hauler took it to the plant
+    with fleet.recorder.lock:
+        events = [(e["event"], e["data"]) for e in fleet.recorder.events]
+    dropped = [d for k, d in events if k == "mineral_dropped" and d["robot"] == "hauler-2"]
+    assert len(dropped) == 1, dropped
+    picked = [
+        d for k, d in events if k == "mineral_recovered" and d["mineral"] == dropped[0]["mineral"]
+    ]
+    assert len(picked) == 1 and picked[0]["robot"] != "hauler-2", picked
+    assert sum(k == "delivered" for k, _ in events) == 64
     auctions = list(fleet.recorder.auctions.values())
     # the killed hauler's task was auctioned again, and someone else carried it
     again = [a for a in auctions if a["reauction_of"] == killed["id"]]

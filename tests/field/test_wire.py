@@ -17,7 +17,9 @@ from field.transport import Faults, ZenohBus, open_session
 from field.wire import (
     MESSAGE_TYPES,
     VERSION,
+    InjectTask,
     decode,
+    decode_inject,
     decode_json,
     encode,
     message_key,
@@ -112,6 +114,26 @@ def test_other_mission_is_dropped() -> None:
 def test_random_bytes_never_raise(payload: bytes) -> None:
     assert decode(payload) is None or isinstance(decode(payload), Message)
     assert decode_json(payload) is None or decode_json(payload)["v"] == VERSION
+
+
+def test_an_operator_task_round_trips_and_a_bad_one_is_dropped() -> None:
+    task = InjectTask(v=1, cmd="inject_task", task_type="transport", x=1.5, y=2.0, task_id="t")
+    assert decode_inject(task.model_dump_json().encode()) == task
+    good = json.loads(task.model_dump_json())
+    for bad in (
+        {**good, "v": 2},  # another version
+        {**good, "task_type": "scan"},  # not a task an operator may inject
+        {**good, "x": "NaN"},  # not a finite number
+        {**good, "extra": 1},  # an unknown field
+        {k: v for k, v in good.items() if k != "task_id"},  # a missing one
+    ):
+        assert decode_inject(json.dumps(bad).encode()) is None, bad
+    assert decode_inject(b"\xff not json") is None
+
+
+@given(st.binary(max_size=200))
+def test_random_bytes_are_never_an_operator_task(payload: bytes) -> None:
+    assert decode_inject(payload) is None
 
 
 def test_faults_validate_and_draw() -> None:

@@ -1,0 +1,257 @@
+"""Field chaos: a field mission (mission control and its agent processes, as the server runs
+it: `FieldMission`) under random operator actions at random times — SIGKILLs, rejoins, new
+robots, policy switches (centralized ones refused), operator tasks (some in craters or outside
+the area, refused) — then every killed robot started again and the mission run to its end.
+
+Checked throughout: minerals conserved in the world service's record (in the piles + on board
++ on the ground + delivered = the total, read at one instant), each task held by at most one
+live robot (the robots' own heartbeats, a task ended since a heartbeat not counted). At the
+end: the mission completed with every mineral delivered, every auction record has one
+accepted award and it is the winner's, and no agent process is left.
+
+Heavy (12+ processes against the wall clock on a two-core machine), so a few seeds only; the
+seed and the actions taken are printed (pytest shows them with a failure).
+`REGOLITH_FIELD_CHAOS_SEEDS=5,6,7` runs others.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import random
+import time
+from collections import defaultdict
+from typing import Any
+
+import pytest
+
+from engine.errors import CommandRejected
+from engine.policies import POLICIES
+from engine.scenario import ROBOT_TYPES, reference_scenario
+from field.control import FieldMission
+from tests.field.serial import one_field_mission_at_a_time
+
+SEEDS = [int(s) for s in os.environ.get("REGOLITH_FIELD_CHAOS_SEEDS", "101,202").split(",")]
+SPEED = 100.0
+CHAOS_UNTIL_S = 1200.0  # mission time of random actions; then every killed robot restarts
+WALL_LIMIT_S = 180.0  # a loaded machine slows a real-time mission; ~35 s when it is not
+
+
+class Chaos:
+    def __init__(self, m: FieldMission, rng: random.Random, seed: int) -> None:
+        self.m, self.rng, self.seed = m, rng, seed
+        self.log: list[str] = []
+        self.added = 0
+
+    def note(self, what: str) -> None:
+        line = f"t={self.m.now:7.1f} {what}"
+        self.log.append(line)
+        print(line)
+
+    def try_(self, what: str, fn: Any, *args: Any) -> None:
+        try:
+            out = fn(*args)
+        except CommandRejected as exc:
+            self.note(f"{what}: refused ({exc})")
+        else:
+            self.note(f"{what}: {out if out is not None else 'ok'}")
+
+    def robots(self) -> list[dict[str, Any]]:
+        return self.m.robot_list()
+
+    def step(self) -> None:
+        kind = self.rng.choices(
+            ["kill", "enable", "add", "policy", "inject"], weights=[5, 3, 1, 2, 3]
+        )[0]
+        robots = self.robots()
+        if kind == "kill":
+            up = [r["name"] for r in robots if r["alive"]]
+            pool = up if up and self.rng.random() < 0.9 else [r["name"] for r in robots]
+            self.try_(f"kill {(n := self.rng.choice(pool))}", self.m.disable_robot, n, "abrupt")
+        elif kind == "enable":
+            down = [r["name"] for r in robots if not r["alive"]]
+            pool = down if down and self.rng.random() < 0.9 else [r["name"] for r in robots]
+            self.try_(f"enable {(n := self.rng.choice(pool))}", self.m.enable_robot, n)
+        elif kind == "add" and self.added < 2:
+            self.added += 1
+            rtype = self.rng.choice(ROBOT_TYPES)
+            self.try_(f"add {rtype}", self.m.add_robot, rtype)
+        elif kind == "policy":
+            name = self.rng.choice(sorted(POLICIES))
+            self.try_(f"policy {name}", self.m.set_policy, name)
+        elif kind == "inject":
+            self.inject()
+
+    def inject(self) -> None:
+        f = self.m.fleet.world.field
+        task_type = self.rng.choice(["excavate", "transport"])
+        spots = [(s.x, s.y) for s in f.sites if s.found_at is not None]
+        spots += [(g.x, g.y) for g in list(f.ground)]
+        w = self.m.world
+        if spots and self.rng.random() < 0.6:
+            x, y = self.rng.choice(spots)
+        else:  # anywhere, a crater or outside the area now and then: refused
+            x, y = self.rng.uniform(-5, w.width + 5), self.rng.uniform(-5, w.height + 5)
+        where = [round(x + self.rng.uniform(-1, 1), 3), round(y + self.rng.uniform(-1, 1), 3)]
+        self.try_(f"inject {task_type} at {where}", self.m.inject_task, task_type, where)
+
+    def restart_all(self) -> None:
+        for r in self.robots():
+            if not r["alive"]:
+                self.try_(f"enable {r['name']}", self.m.enable_robot, r["name"])
+
+
+def _conserved(m: FieldMission, seed: int) -> dict[str, int]:
+    where = m.fleet.world.minerals_in()
+    total = m.fleet.world.field.minerals_total
+    assert sum(where.values()) == total, f"seed {seed}: minerals not conserved: {where} of {total}"
+    return where
+
+
+class OneHolder:
+    """Each task in at most one live robot's hands, by the robots' latest heartbeats (a task
+    ended since a heartbeat is not counted).
+
+    One exception, by the protocol's design (docs/faults.md): a live robot its peers declared
+    failed (silent past `failure_timeout_s`: at K = 100 that is 0.3 s of wall time, which a
+    process starved of CPU on a busy machine can miss) has its tasks auctioned again, and the
+    task is held twice until Holding/Revoke or the task's end settle it (two haulers sent to
+    one excavator: one is loaded, the other finds nothing and ends its task void). Such a
+    double holding is allowed and counted (with how long it lasted); any other fails. On this
+    project's busy development machine (load average 10+) a run counted several, each from a
+    burst of false suspicions of one starved agent; mineral conservation is checked all the
+    same, so a task carried twice could not go unnoticed."""
+
+    def __init__(self, m: FieldMission, seed: int) -> None:
+        self.m, self.seed = m, seed
+        self.since: dict[tuple[str, tuple[str, ...]], float] = {}
+        self.tolerated: dict[tuple[str, tuple[str, ...]], float] = {}
+        self.ended: dict[tuple[str, str], float] = {}  # (robot, task) -> when it last ended it
+        self.suspected: dict[str, float] = {}  # robot -> the last time a peer declared it failed
+        self.read = 0  # events taken in so far (the world service shares this process's GIL)
+
+    def check(self) -> None:
+        m, rec = self.m, self.m.fleet.recorder
+        ended, suspected = self.ended, self.suspected
+        with rec.lock:
+            beats = dict(rec.heartbeats)
+            fresh = rec.events[self.read :]
+            self.read = len(rec.events)
+        for e in fresh:
+            if e.get("event") == "task_ended":
+                key = (str(e.get("by")), str(e["data"].get("task_id")))
+                ended[key] = max(ended.get(key, -math.inf), float(e["t"]))
+            elif e.get("event") == "failure_detected":
+                who = str(e["data"].get("robot"))
+                suspected[who] = max(suspected.get(who, -math.inf), float(e["t"]))
+        holders: dict[str, list[str]] = defaultdict(list)
+        lives: dict[str, float] = {}
+        for name, proc in list(m.fleet.procs.items()):
+            hb = beats.get(name)
+            if proc.popen.poll() is not None or hb is None or hb.t < proc.started_at:
+                continue  # dead, or a heartbeat of an earlier life
+            lives[name] = proc.started_at
+            for task in hb.tasks:
+                if ended.get((name, task), -math.inf) < hb.t:
+                    holders[task].append(name)
+        now = m.now
+        current = set()
+        for task, names in holders.items():
+            if len(names) < 2:
+                continue
+            key = (task, tuple(sorted(names)))
+            current.add(key)
+            first = self.since.setdefault(key, now)
+            # a holder its peers declared failed during this life of its process
+            wrongly = [n for n in names if suspected.get(n, -math.inf) >= lives[n]]
+            if not wrongly:
+                self._fail(f"{task} held by {names}, none of them ever declared failed", names)
+            self.tolerated[key] = now - first
+        self.since = {k: v for k, v in self.since.items() if k in current}
+
+    def _fail(self, what: str, names: list[str]) -> None:
+        rec = self.m.fleet.recorder
+        with rec.lock:
+            said = [
+                (round(float(e["t"]), 1), e.get("by"), e["event"], e["data"])
+                for e in rec.events
+                if e["data"].get("robot") in names or e.get("by") in names
+                if e["event"] in ("failure_detected", "takeover", "task_started", "task_ended")
+            ]
+        detail = "\n".join(map(str, said[-40:]))
+        pytest.fail(f"seed {self.seed}: at t={self.m.now:.1f}: {what}\n{detail}")
+
+
+def _stuck(m: FieldMission, seed: int) -> str:
+    """Why a mission did not finish: where the minerals are, what each robot last said."""
+    with m.fleet.recorder.lock:
+        beats = {
+            n: (round(hb.t), hb.state, hb.load, hb.tasks)
+            for n, hb in m.fleet.recorder.heartbeats.items()
+        }
+    loads = {n: k for n, k in m.fleet.world.loads.items() if k}
+    with m.fleet.recorder.lock:
+        pickups = [
+            (round(e["t"]), e["data"]) for e in m.fleet.recorder.events if e["event"] == "pickup"
+        ]
+    last = {n: [p for p in pickups if p[1].get("from_robot") == n][-2:] for n in loads}
+    return (
+        f"seed {seed}: not finished in {WALL_LIMIT_S} s: {m.fleet.world.status()}\n"
+        f"on board by the world's record: {loads}, their last pick-ups: {last}\n"
+        f"last heartbeats: {beats}"
+    )
+
+
+def _records_sound(m: FieldMission, seed: int) -> None:
+    for a in (v.to_dict() for v in m.auctions):
+        accepted = [w["winner"] for w in a["awards"] if w["outcome"] == "accepted"]
+        if a["status"] == "closed":
+            assert accepted == [a["allocated_to"]], f"seed {seed}: {a}"
+        else:
+            assert a["allocated_to"] is None and not accepted, f"seed {seed}: {a}"
+
+
+@pytest.mark.slow
+@pytest.mark.fleet
+@pytest.mark.parametrize("seed", SEEDS)
+def test_field_mission_under_random_operator_actions(seed: int) -> None:
+    print(f"field chaos seed {seed} (REGOLITH_FIELD_CHAOS_SEEDS={seed} repeats its choices)")
+    rng = random.Random(seed)
+    decentralized = sorted(n for n, p in POLICIES.items() if p.decentralized)
+    with one_field_mission_at_a_time():
+        m = FieldMission(reference_scenario(), seed, rng.choice(decentralized), SPEED)
+        chaos = Chaos(m, rng, seed)
+        holders = OneHolder(m, seed)
+        chaos.note(f"policy {m.policy}")
+        try:
+            t0 = time.monotonic()
+            next_at = rng.uniform(100, 300)
+            settled = False
+            while not m.done:
+                assert time.monotonic() - t0 < WALL_LIMIT_S, _stuck(m, seed)
+                m.advance(m.now)
+                _conserved(m, seed)
+                holders.check()
+                if not settled and m.now >= CHAOS_UNTIL_S:
+                    chaos.restart_all()
+                    settled = True
+                elif not settled and m.now >= next_at:
+                    chaos.step()
+                    if rng.random() < 0.2:
+                        chaos.step()  # two at once
+                    next_at = m.now + rng.uniform(20, 150)
+                time.sleep(0.1)
+            where = _conserved(m, seed)
+            assert m.status == "completed", f"seed {seed}: {m.status} {where}"
+            assert where["delivered"] == m.fleet.world.field.minerals_total, where
+            assert where["aboard"] == where["ground"] == where["sites"] == 0, where
+            _records_sound(m, seed)
+            print(
+                f"held twice while a live holder was thought failed (task, holders: s): "
+                f"{holders.tolerated}"
+            )
+        finally:
+            m.close()
+        procs = [*m.fleet.history, *([m.fleet.operator] if m.fleet.operator else [])]
+        left = [p.name for p in procs if p.popen.poll() is None]
+        assert not left, f"seed {seed}: agent processes left: {left}"
