@@ -195,10 +195,19 @@ def _stuck(m: FieldMission, seed: int) -> str:
             (round(e["t"]), e["data"]) for e in m.fleet.recorder.events if e["event"] == "pickup"
         ]
     last = {n: [p for p in pickups if p[1].get("from_robot") == n][-2:] for n in loads}
+    with m.fleet.recorder.lock:  # what happened around them (re-announcements only repeat)
+        trail = [
+            (round(e["t"]), e.get("by"), e["event"], e["data"])
+            for e in m.fleet.recorder.events
+            if e["event"] != "auction_reannounced"
+            and any(n == e.get("by") or n in str(e["data"]) for n in loads)
+        ][-40:]
+    trail_txt = "\n".join(map(str, trail))
     return (
         f"seed {seed}: not finished in {WALL_LIMIT_S} s: {m.fleet.world.status()}\n"
         f"on board by the world's record: {loads}, their last pick-ups: {last}\n"
-        f"last heartbeats: {beats}"
+        f"last heartbeats: {beats}\n"
+        f"their last events (t, by, event, data):\n{trail_txt}"
     )
 
 
