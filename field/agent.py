@@ -262,9 +262,6 @@ class Agent:
             value = serve_call(self.robot, stand_in, method, args)
         finally:
             stand_in.override = None
-        if method == "receive":  # the caller's bucket is in my bin now: the world records it
-            x, y = self.robot.pos
-            self.ask_world("handover", by=self.name, src=caller["name"], x=x, y=y)
         self.step += 1
         return {"ok": True, "value": value if isinstance(value, bool | None) else None}
 

@@ -184,7 +184,13 @@ class PeerBody:
     def can_receive(self, _exc: Any) -> bool:
         return bool(self._call("can_receive"))
 
-    def receive(self, _exc: Any, task_id: str) -> None:
+    def receive(self, exc: Any, task_id: str) -> None:
+        # the world records the hand-over here, as the giver's bucket empties: recorded by the
+        # receiver's agent, it lagged whenever that agent kept the call for its clock loop, and
+        # a giver killed in between had the mineral dropped on the ground by the world while
+        # the kept call still put it in the bin (two minerals out of one: 65 of 64)
+        x, y = exc.pos
+        self._asker.ask_world("handover", by=self.name, src=self._asker.name, x=x, y=y)
         self._call("receive", task_id)
 
     def wake(self) -> None:
