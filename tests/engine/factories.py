@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from engine import Mission, Scenario, parse_scenario
+from engine.errors import CommandRejected
 from tests.engine.invariants import InvariantWatch
 
 
@@ -42,6 +43,28 @@ def quiet_scenario(**overrides: Any) -> Scenario:
     }
     base.update(overrides)
     return small_scenario(**base)
+
+
+def play_actions(m: Mission, actions: list[tuple[float, str, Any]]) -> None:
+    """Advance to each action's time and take it (fail, leave, enable, add, policy, inject);
+    one the mission refuses (a robot already down, a policy in force) is skipped."""
+    for t, kind, arg in actions:
+        m.advance(t)
+        try:
+            if kind == "fail":
+                m.disable_robot(arg, "abrupt")
+            elif kind == "leave":
+                m.disable_robot(arg, "graceful")
+            elif kind == "enable":
+                m.enable_robot(arg)
+            elif kind == "add":
+                m.add_robot(arg)
+            elif kind == "policy":
+                m.set_policy(arg)
+            else:
+                m.inject_task(arg, (20.0, 20.0))
+        except CommandRejected:
+            pass
 
 
 def events_of(m: Mission, kind: str) -> list[dict[str, Any]]:

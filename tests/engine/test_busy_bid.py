@@ -14,9 +14,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from engine import POLICIES, Mission, reference_scenario
-from engine.errors import CommandRejected
 from engine.scenario import Protocol, Scenario
-from tests.engine.factories import small_scenario
+from tests.engine.factories import play_actions, small_scenario
 
 ROBOTS = ["scout-1", "excavator-1", "excavator-2", "hauler-1", "hauler-2"]
 ACTION = st.one_of(
@@ -35,21 +34,7 @@ def _play(busy_bid: str, seed: int, policy: str, actions: list[tuple[float, str,
         protocol={"busy_bid": busy_bid},
     )
     m = Mission(scenario, seed, policy)
-    for t, kind, arg in actions:
-        m.advance(t)
-        try:
-            if kind == "fail":
-                m.disable_robot(arg, "abrupt")
-            elif kind == "enable":
-                m.enable_robot(arg)
-            elif kind == "add":
-                m.add_robot(arg)
-            elif kind == "policy":
-                m.set_policy(arg)
-            else:
-                m.inject_task(arg, (20.0, 20.0))
-        except CommandRejected:
-            pass
+    play_actions(m, actions)
     m.run()
     return m
 

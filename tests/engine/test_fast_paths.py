@@ -28,12 +28,11 @@ from hypothesis import strategies as st
 import engine.robots.bidder
 from engine import POLICIES, Mission
 from engine.bus import EmbeddedBus
-from engine.errors import CommandRejected
 from engine.geometry import segment_point_distance
 from engine.liveness import Liveness
 from engine.scenario import Crater
 from engine.world import CLEARANCE, CraterIndex
-from tests.engine.factories import small_scenario
+from tests.engine.factories import play_actions, small_scenario
 
 
 def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> list[str]:
@@ -43,23 +42,7 @@ def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> 
 
 def _play(scenario: Any, seed: int, policy: str, actions: list[tuple[float, str, Any]]) -> str:
     m = Mission(scenario, seed, policy)
-    for t, kind, arg in actions:
-        m.advance(t)
-        try:
-            if kind == "fail":
-                m.disable_robot(arg, "abrupt")
-            elif kind == "leave":
-                m.disable_robot(arg, "graceful")
-            elif kind == "enable":
-                m.enable_robot(arg)
-            elif kind == "add":
-                m.add_robot(arg)
-            elif kind == "policy":
-                m.set_policy(arg)
-            else:
-                m.inject_task(arg, (20.0, 20.0))
-        except CommandRejected:
-            pass
+    play_actions(m, actions)
     m.run()
     h = hashlib.sha256()
     for e in m.events:
