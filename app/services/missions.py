@@ -10,7 +10,7 @@ from __future__ import annotations
 import asyncio
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 from app.db.models import Mission as MissionRow
 from app.db.models import utcnow
@@ -18,7 +18,8 @@ from app.live.hub import Hub, Viewer, encode
 from app.live.runner import LiveMission, MissionRunner, stream_state
 from app.services import queries
 from app.services.admission import Admission
-from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
+from app.services.errors import Conflict, LimitExceeded, NotFound
+from app.services.field_rules import Speed, check_field
 from app.services.replay import revive
 from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
@@ -26,40 +27,10 @@ from app.services.store import Store
 from app.settings import Settings
 from engine import Mission, Scenario, reference_scenario
 
-Speed = float | Literal["max"]
-
 
 def speed_value(speed: Speed) -> float | None:
     """API speed → runner speed (None is "max")."""
     return None if speed == "max" else float(speed)
-
-
-def realism_option(scenario: Scenario) -> str | None:
-    """The first realism option a scenario turns on (field mode runs none of them)."""
-    for option in ("energy", "docks", "uncertainty", "radio"):
-        if getattr(scenario, option).enabled:
-            return option
-    return None
-
-
-def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> None:
-    """What a field mission needs: a wall-clock speed, no pause, a decentralized policy and
-    none of the realism options (docs/field.md)."""
-    from engine.policies import POLICIES
-
-    if speed == "max" or float(speed) < 1 or paused:
-        raise Invalid("speed: a field mission runs at a fixed speed >= 1, unpaused", ("speed",))
-    if not POLICIES[policy].decentralized:
-        raise Invalid(
-            f"policy: {policy} is centralized; field mode runs decentralized ones", ("policy",)
-        )
-    option = realism_option(scenario)
-    if option is not None:
-        raise Invalid(
-            f"scenario.{option}: field mode runs without the realism options "
-            "(energy, docks, uncertainty, radio)",
-            ("scenario", option),
-        )
 
 
 @dataclass(frozen=True)

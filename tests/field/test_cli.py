@@ -53,7 +53,7 @@ def test_the_api_refuses_a_field_mission_it_cannot_run(
     """`POST /api/missions` with `field: true` answers 422 naming the field, before any
     process starts."""
     from app.services.errors import Invalid
-    from app.services.missions import check_field
+    from app.services.field_rules import check_field
     from engine.scenario import reference_scenario
 
     with pytest.raises(Invalid) as err:
@@ -67,7 +67,7 @@ def test_a_realism_option_is_refused_naming_it(option: str) -> None:
     """Field mode runs none of the realism options (its agents build their robots without
     them): the API answers 422 naming the option, before any process starts."""
     from app.services.errors import Invalid
-    from app.services.missions import check_field
+    from app.services.field_rules import check_field
     from engine.scenario import load_scenario
 
     scenario = load_scenario(SCENARIOS / "realism" / f"{option}.toml")

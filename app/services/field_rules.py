@@ -1,0 +1,39 @@
+"""What a field mission may be asked for (docs/field.md): checked before any agent starts,
+so a refusal is a 4xx naming the field, never a half-started fleet."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from app.services.errors import Invalid
+from engine import Scenario
+
+Speed = float | Literal["max"]
+
+
+def realism_option(scenario: Scenario) -> str | None:
+    """The first realism option a scenario turns on (field mode runs none of them)."""
+    for option in ("energy", "docks", "uncertainty", "radio"):
+        if getattr(scenario, option).enabled:
+            return option
+    return None
+
+
+def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> None:
+    """What a field mission needs: a wall-clock speed, no pause, a decentralized policy and
+    none of the realism options (docs/field.md)."""
+    from engine.policies import POLICIES
+
+    if speed == "max" or float(speed) < 1 or paused:
+        raise Invalid("speed: a field mission runs at a fixed speed >= 1, unpaused", ("speed",))
+    if not POLICIES[policy].decentralized:
+        raise Invalid(
+            f"policy: {policy} is centralized; field mode runs decentralized ones", ("policy",)
+        )
+    option = realism_option(scenario)
+    if option is not None:
+        raise Invalid(
+            f"scenario.{option}: field mode runs without the realism options "
+            "(energy, docks, uncertainty, radio)",
+            ("scenario", option),
+        )
