@@ -106,6 +106,18 @@ class Liveness:
             self.heard[r, s] = t
             self._first_heard(s, t)
 
+    def excuse(self, receiver: str, since: float, until: float) -> None:
+        """`receiver` was not listening from `since` to `until` (in the field: its process got
+        no CPU): that time does not count as its peers' silence. Every peer it has heard is
+        heard `until - since` later (no later than `until`); entries only grow, so the
+        floors stay lower bounds."""
+        r, gap = self.index.get(receiver), until - since
+        if r is None or gap <= 0:
+            return
+        row = self.heard[r, : len(self.names)]
+        heard = np.isfinite(row)
+        row[heard] = np.minimum(row[heard] + gap, until)
+
     def last_heard(self, receiver: str, sender: str) -> float:
         r, s = self.index.get(receiver), self.index.get(sender)
         if r is None or s is None:

@@ -89,7 +89,7 @@ def test_shortcuts_change_nothing(seed, policy, bus, every_round, actions):
 @given(
     ops=st.lists(
         st.tuples(
-            st.sampled_from(["add", "hb_all", "hb_some", "heard", "introduce"]),
+            st.sampled_from(["add", "hb_all", "hb_some", "heard", "introduce", "excuse"]),
             st.integers(0, 40),
             st.floats(0.0, 5.0),
         ),
@@ -109,6 +109,8 @@ def test_silent_peers_match_a_look_at_every_entry(ops, timeout):
             board.add(f"r{len(names)}")
         elif op == "introduce":
             board.introduce_all(now)
+        elif op == "excuse":  # a receiver deaf for the last dt (a field agent's starved process)
+            board.excuse(names[k % len(names)], now - dt, now)
         else:
             sender = names[k % len(names)]
             if op == "heard":
@@ -122,6 +124,20 @@ def test_silent_peers_match_a_look_at_every_entry(ops, timeout):
                 board.deliver_heartbeat(sender, serial, None if op == "hb_all" else some, now)
         for r in board.names:
             assert board.silent(r, now, timeout) == _brute_silent(board, r, now, timeout)
+
+
+def test_time_a_receiver_was_deaf_is_not_its_peers_silence():
+    board = Liveness()
+    for name in ("me", "a", "b"):
+        board.add(name)
+    board.introduce_all(0.0)
+    board.heard_from("me", "a", 95.0)
+    board.heard_from("me", "b", 90.0)
+    board.excuse("me", 100.0, 400.0)  # no CPU from 100 to 400: heard nothing, listened to nothing
+    assert board.silent("me", 400.0, 30.0) == []
+    assert board.last_heard("me", "a") == 395.0 and board.last_heard("me", "b") == 390.0
+    assert board.silent("me", 421.0, 30.0) == ["b"]  # silent after it woke: silent indeed
+    assert board.silent("a", 400.0, 30.0) == ["me", "b"]  # others' views are their own
 
 
 COORD = st.one_of(st.floats(0.0, 300.0), st.integers(0, 15).map(lambda k: 20.0 * k))
