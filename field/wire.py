@@ -108,6 +108,12 @@ def operator_key(mission: str) -> str:
     return f"{PREFIX}/{mission}/operator"
 
 
+def presence_key(mission: str) -> str:
+    """Mission control's liveliness token: present while its Zenoh session lives. Agents
+    leave when it goes (mission control ended or died), not when it is merely slow."""
+    return f"{PREFIX}/{mission}/presence/control"
+
+
 def command_key(mission: str) -> str:
     """Operator commands from mission control to the agents."""
     return f"{PREFIX}/{mission}/command"

@@ -28,7 +28,7 @@ from engine.policies import resolve_policy
 from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.world import World, generate_world
-from field.wire import decode_json, encode_json, event_key, world_key
+from field.wire import decode_json, encode_json, event_key, presence_key, world_key
 
 log = logging.getLogger("regolith.field.world")
 
@@ -117,6 +117,9 @@ class WorldService:
         self.starts = dict(zip(names, starts, strict=True))
         self.spawned: dict[str, int] = {}
         self.loads: dict[str, int] = {}  # minerals on board, by robot (bucket or bin)
+        # `once` id -> the answer of the operation carried out under it (False for one
+        # settled as never done): a mineral moves once even when a reply is lost
+        self.done: dict[str, Any] = {}
         self.seen: dict[str, tuple[float, float, float]] = {}  # robot -> (t, x, y) last heard
         self.heard: dict[str, float] = {}  # robot -> mission time it was last heard
         self.queries = 0
@@ -128,6 +131,7 @@ class WorldService:
         self._events_pub = session.declare_publisher(event_key(mission, "world"))
         self.observer.log.subscribe(self._publish_event)
         self._queryable = session.declare_queryable(world_key(mission), self._on_query)
+        self._presence = session.liveliness().declare_token(presence_key(mission))
 
     def _publish_event(self, ev: Any) -> None:
         """Recorded now (the world's lock is held), published by `_flush` once it is not:
@@ -160,6 +164,19 @@ class WorldService:
 
     # --- the operations -------------------------------------------------------------------
     def handle(self, op: str, a: dict[str, Any]) -> Any:
+        """One operation. One that moves a mineral carries a `once` id, and is carried out
+        once whatever the number of times it is asked: an agent asks again when a reply is
+        late, and a delivery asked twice would count a mineral twice."""
+        once = a.get("once")
+        if once is None:
+            return self._handle(op, a)
+        if op == "settle":  # the asker heard no answer: did it happen? (if not, it never will)
+            return self.done.setdefault(str(once), False)
+        if str(once) not in self.done:
+            self.done[str(once)] = self._handle(op, a)
+        return self.done[str(once)]
+
+    def _handle(self, op: str, a: dict[str, Any]) -> Any:
         f = self.field
         if op == "spawn":
             return self._spawn(str(a["name"]))
@@ -211,11 +228,11 @@ class WorldService:
             f.pick_ground(g, str(a["by"]))
             self._hold(str(a["by"]), 1, (g.x, g.y))
             return True
-        if op == "handover":  # an excavator emptied its bucket into this hauler's bin
+        if op == "handover":  # a hauler takes the mineral in an excavator's bucket
             p = (float(a["x"]), float(a["y"]))
             self._hold(str(a["src"]), -1, p)
             self._hold(str(a["by"]), 1, p)
-            return None
+            return True
         if op == "deliver":
             self._hold(str(a["by"]), -1, self.world.plant)
             f.note_delivery(str(a["by"]))
@@ -330,7 +347,7 @@ class WorldService:
         }
 
     def close(self) -> None:
-        for decl in (self._queryable, self._events_pub):
+        for decl in (self._presence, self._queryable, self._events_pub):
             with contextlib.suppress(Exception):  # the session may be gone already
                 decl.undeclare()
 
