@@ -12,14 +12,15 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import itertools
 import logging
 import threading
 import time
-from collections import deque
 from typing import Any
 
 import numpy as np
 import simpy
+import zenoh
 
 from engine.auction_rules import AuctionRecord
 from engine.context import MissionContext
@@ -31,7 +32,7 @@ from engine.scenario import Scenario
 from engine.spiral import spiral_routes
 from engine.world import generate_world
 from field.remote import CALLS, PeerBody, RemoteField, look, serve_call
-from field.transport import Faults, ZenohBus, open_session
+from field.transport import Faults, Stalls, ZenohBus, open_session
 from field.wire import (
     body_key,
     check_segment,
@@ -41,6 +42,7 @@ from field.wire import (
     encode_json,
     event_key,
     operator_key,
+    presence_key,
     world_key,
 )
 from field.world_service import MissionClock
@@ -49,13 +51,16 @@ log = logging.getLogger("regolith.field.agent")
 _CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hauler": Hauler}
 QUERY_TIMEOUT_S = 2.0
 """How long (wall) a query to the world service or a peer may take; past it, no answer."""
-MISSION_CONTROL_GONE_S = 10.0
-
-
-def _moves_a_mineral(req: dict[str, Any]) -> bool:
-    """A body call that moves a mineral from the caller to this robot (a hand-over)."""
-    args = req.get("args")
-    return req.get("op") == "call" and isinstance(args, dict) and args.get("method") == "receive"
+BUSY = "busy"
+AWAKE_S = 0.1
+"""The clock loop wakes at least every 50 ms (wall): a longer gap is time the process was not
+running (CPU starvation), and does not count against its peers' liveness (`Liveness.excuse`).
+Without it, a robot starved for 0.3 s at K = 100 (its failure timeout, 30 s) declared every
+peer failed at once and auctioned their tasks again, over and over on a loaded machine."""
+BUSY_RETRIES = 4
+DELIVER_PER_TURN = 100
+PRESENCE_GRACE_S = 3.0
+"""How long mission control's liveliness token may be gone before its agents leave."""
 
 
 class AgentError(RuntimeError):
@@ -86,13 +91,19 @@ class Agent:
         speed: float | None = None,
         listen: str | None = None,
         faults: Faults | None = None,
+        stalls: Stalls | None = None,
     ) -> None:
         self.name = check_segment(name, "name")
         self.mission = check_segment(mission, "mission")
         self.step = 0
+        # the robot's state: the clock loop holds it while it steps the robot, the query
+        # handlers while they serve a peer; the loop lets go while it waits for an answer
         self.lock = threading.Lock()
+        self._loop_holds = False
+        self._loop_thread: int | None = None
+        self._ids = itertools.count(1)
         self.stopped = threading.Event()
-        self._pending: deque[dict[str, Any]] = deque()  # body calls kept for the clock loop
+        self.stalls = stalls
         self.session = open_session(listen=listen, connect=connect)
         spawn = self._spawn()
         if speed is not None and abs(speed - spawn["speed"]) > 1e-9:
@@ -161,6 +172,14 @@ class Agent:
 
     # --- queries ----------------------------------------------------------------------------
     def _ask(self, key: str, req: dict[str, Any]) -> dict[str, Any] | None:
+        # the clock loop lets go of the robot while it waits: a peer asking this robot
+        # something meanwhile is answered, not refused as busy (two robots asking each
+        # other at once, each holding its own lock, both heard "busy" and took it as "not
+        # there": a transport ended void, auctioned again, again)
+        parked = self._loop_holds and threading.get_ident() == self._loop_thread
+        if parked:
+            self._loop_holds = False
+            self.lock.release()
         try:
             replies = self.session.get(key, payload=encode_json(req), timeout=QUERY_TIMEOUT_S)
             for reply in replies:
@@ -169,7 +188,17 @@ class Agent:
         except Exception:  # the session closed under a robot still running at shutdown
             if not self.stopped.is_set():
                 raise
+        finally:
+            if parked:
+                self.lock.acquire()
+                self._loop_holds = True
         return None
+
+    def new_id(self, what: str) -> str:
+        return f"{self.name}@{self.session.zid()}/{what}-{next(self._ids)}"
+
+    def stopping(self) -> bool:
+        return self.stopped.is_set()
 
     def _spawn(self) -> dict[str, Any]:
         deadline = time.monotonic() + 30.0
@@ -195,15 +224,22 @@ class Agent:
                     return None
                 return rep["value"]
             log.warning("world %s: no answer yet, asking again", op)
-            if self.stopped.is_set():
+            if self.stopped.wait(0.05):  # (no route at all answers at once: not a busy loop)
                 return None
 
     def ask_body(self, name: str, op: str, **args: Any) -> Any:
+        """A peer's answer; None if it did not answer (gone, or too slow) or refused. A peer
+        that says it is busy is there: it is asked again, a few times."""
         req = {"op": op, "args": args, "caller": look(self.robot)}
-        rep = self._ask(body_key(self.mission, name), req)
-        if rep is None or not rep.get("ok"):
-            return None
-        return rep["value"]
+        for _ in range(BUSY_RETRIES):
+            rep = self._ask(body_key(self.mission, name), req)
+            if rep is None or self.stopped.is_set():
+                return None
+            if rep.get("ok"):
+                return rep["value"]
+            if rep.get("error") != BUSY:
+                return None
+        return None
 
     def _on_body(self, query: Any) -> None:
         """Another robot looks at this one, or acts on it (Zenoh's thread)."""
@@ -216,41 +252,32 @@ class Agent:
                 reply = {"ok": False, "error": str(exc)[:200]}
             finally:
                 self.lock.release()
-        elif req is not None and _moves_a_mineral(req):
-            # the caller has emptied its bucket already and goes on whatever I answer: the
-            # mineral must reach my bin, so the call is kept for the clock loop to apply as
-            # soon as it holds the lock (refusing it for a busy lock lost the mineral)
-            log.warning("%s: busy; a hand-over kept for the clock loop", self.name)
-            self._pending.append(req)
-            self.bus.inbox.ready.set()
-            reply = {"ok": True, "value": None}
-        else:
-            reply = {"ok": False, "error": "busy"}
+            self.bus.inbox.ready.set()  # the clock loop: what the call triggered is due now
+        elif req is not None:
+            reply = {"ok": False, "error": BUSY}  # the caller asks again
         query.reply(query.key_expr, encode_json(reply))
 
-    def _apply_pending(self) -> None:
-        """Body calls kept while the lock was busy (`_on_body`); the lock is held."""
+    def _take(self, giver: PeerBody, task_id: str, once: str) -> bool:
+        """An excavator beside me would empty its bucket into my bin (`PeerBody.can_receive`):
+        if I can receive, and the world service records the hand-over `once` (it refuses one
+        the excavator has given up on), the mineral is mine. The lock stays held meanwhile:
+        my state must not change between the check and the receipt."""
         robot: Any = self.robot
-        while self._pending:
-            req = self._pending.popleft()
-            waiting = getattr(robot, "_loaded", None) is not None  # its task takes the bin
-            before = robot.current
-            try:
-                self._serve_body(req)
-            except (KeyError, TypeError, ValueError) as exc:
-                log.warning("a kept body call failed: %s", exc)
-            if not waiting and robot.current is not None and robot.current is not before:
-                # it had stopped waiting: the hand-over becomes a task to carry, queued
-                robot.queue.appendleft(robot.current)
-                robot.current = None
-            robot.wake()
+        if not robot.can_receive(giver):
+            return False
+        x, y = giver.pos
+        if not self.ask_world("handover", once=once, by=self.name, src=giver.name, x=x, y=y):
+            return False
+        robot.receive(giver, task_id)
+        return True
 
     def _serve_body(self, req: dict[str, Any]) -> dict[str, Any]:
         if req.get("op") == "look":
             return {"ok": True, "value": look(self.robot)}
         caller = req["caller"]
         method, args = req["args"]["method"], list(req["args"].get("args") or [])
-        if method not in CALLS or not hasattr(self.robot, method):
+        serves = "can_receive" if method == "take" else method  # only a hauler takes
+        if method not in CALLS or not hasattr(self.robot, serves):
             return {"ok": False, "error": f"method: {method!r} is not served"}
         known: Any = self.ctx.robots.get(caller["name"])
         stand_in = known if isinstance(known, PeerBody) else None
@@ -259,7 +286,10 @@ class Agent:
             self.ctx.robots[caller["name"]] = stand_in  # type: ignore[assignment]
         stand_in.override = caller
         try:
-            value = serve_call(self.robot, stand_in, method, args)
+            if method == "take":
+                value: Any = self._take(stand_in, str(args[0]), str(args[1]))
+            else:
+                value = serve_call(self.robot, stand_in, method, args)
         finally:
             stand_in.override = None
         self.step += 1
@@ -310,39 +340,68 @@ class Agent:
             log.debug("report failed: %s", exc)
 
     # --- the clock loop ---------------------------------------------------------------------
-    def _watch_mission_control(self) -> None:
-        """Leave when the world service has not answered for MISSION_CONTROL_GONE_S (mission
-        control ended or died): an agent never outlives its mission."""
-        last = time.monotonic()
-        while not self.stopped.wait(1.0):
-            if self._ask(world_key(self.mission), {"op": "status", "args": {}}) is not None:
-                last = time.monotonic()
-            elif time.monotonic() - last > MISSION_CONTROL_GONE_S:
-                log.warning("mission control is gone: leaving")
-                self.stopped.set()
+    def _on_presence(self, sample: Any) -> None:
+        """Mission control's token went away: it ended or died (a SIGKILLed process's token
+        goes when its connection drops), unless it is back a moment later (a connection
+        that dropped and came back). Slowness is not absence: a starved mission control
+        keeps its agents (a status poll that gave up after 10 s without an answer made
+        agents leave missions that were only slow)."""
+        if sample.kind == zenoh.SampleKind.DELETE:
+            threading.Timer(PRESENCE_GRACE_S, self._leave_unless_present).start()
+
+    def _leave_unless_present(self) -> None:
+        try:
+            replies = self.session.liveliness().get(presence_key(self.mission), timeout=2.0)
+            present = any(r.ok is not None for r in replies)
+        except Exception:  # the session is closed: we are leaving anyway
+            present = False
+        if not present:
+            log.warning("mission control is gone: leaving")
+            self.stopped.set()
 
     def run(self) -> None:
-        threading.Thread(target=self._watch_mission_control, daemon=True).start()
+        self._loop_thread = threading.get_ident()
+        self._presence = self.session.liveliness().declare_subscriber(
+            presence_key(self.mission), self._on_presence, history=True
+        )
+        # (gone already before this subscription: no DELETE will come)
+        threading.Timer(PRESENCE_GRACE_S, self._leave_unless_present).start()
         env, clock, bus = self.env, self.clock, self.bus
         while not self.stopped.is_set():
             with self.lock:
-                bus.inbox.ready.clear()
-                self._apply_pending()
-                t = clock.now()
-                while env.peek() <= t:
-                    env.step()
-                if t > env.now:
-                    env.run(until=t)  # nothing due: the clock moves on to the wall's time
-                for msg in bus.inbox.due():
-                    bus.deliver(msg, float(env.now))
-                self.step += 1
-                nxt = env.peek()
+                self._loop_holds = True
+                try:
+                    bus.inbox.ready.clear()
+                    self._stall()
+                    t = clock.now()
+                    away = t - env.now - AWAKE_S * clock.speed
+                    if away > 0:  # this process had no CPU: peers were not silent, I was deaf
+                        self.ctx.liveness.excuse(self.name, env.now, env.now + away)
+                    while env.peek() <= t:
+                        env.step()
+                    if t > env.now:
+                        env.run(until=t)  # nothing due: the clock moves on to the wall's time
+                    # a backlog is worked through a batch per turn, the clock kept between:
+                    # a robot behind on its messages still heartbeats and keeps its timers
+                    for msg in bus.inbox.due(limit=DELIVER_PER_TURN):
+                        bus.deliver(msg, float(env.now))
+                    self.step += 1
+                    nxt = env.peek()
+                finally:
+                    self._loop_holds = False
             wait = 0.05 if nxt == float("inf") else (nxt - clock.now()) / clock.speed
             pending = bus.inbox.next_due_in()
             if pending is not None:
                 wait = min(wait, pending)
             # at least a millisecond: a timer due "now" waits for the wall to catch up
             bus.inbox.ready.wait(min(max(wait, 0.001), 0.05))
+
+    def _stall(self) -> None:
+        """Injected starvation (`Stalls`): stop, holding the robot, as an unscheduled process."""
+        stalls = self.stalls
+        if stalls is not None and time.monotonic() >= stalls.due:
+            time.sleep(stalls.for_s)
+            stalls.due = time.monotonic() + stalls.wait()
 
     def close(self) -> None:
         self.stopped.set()

@@ -46,10 +46,17 @@ class RecordView:
 class FieldMission:
     """A field mission as the live service sees it (duck-types `engine.Mission`)."""
 
-    def __init__(self, scenario: Scenario, seed: int, policy: str | int, speed: float) -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        seed: int,
+        policy: str | int,
+        speed: float,
+        stall: str | None = None,
+    ) -> None:
         self.scenario, self.seed = scenario, seed
         self.initial_policy = resolve_policy(policy)
-        self.fleet = Fleet(scenario, seed, self.initial_policy, speed)
+        self.fleet = Fleet(scenario, seed, self.initial_policy, speed, stall=stall)
         self.world = self.fleet.world.world
         self.events: list[Event] = []
         self.auctions: list[RecordView] = []

@@ -24,7 +24,7 @@ from typing import Any
 from engine.messages import Heartbeat
 from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
-from field.transport import open_session
+from field.transport import Stalls, open_session
 from field.wire import (
     PREFIX,
     InjectTask,
@@ -113,6 +113,7 @@ class Fleet:
         port: int | None = None,
         mission: str | None = None,
         listen_host: str = "127.0.0.1",
+        stall: str | None = None,
     ) -> None:
         on = [o for o in REALISM if getattr(scenario, o).enabled]
         if on:  # (the agents build their robots without them)
@@ -124,6 +125,9 @@ class Fleet:
         self.port = port or free_port()
         self.endpoint = f"tcp/{listen_host}:{self.port}"
         self.speed = speed
+        if stall is not None:
+            Stalls.parse(stall)  # ValueError naming the option, before any process starts
+        self.stall = stall  # injected starvation for every agent (`Stalls`, FOR@EVERY)
         self.session = open_session(listen=self.endpoint)
         self.recorder = Recorder()
         self._subs = [
@@ -171,6 +175,7 @@ class Fleet:
             self.mission,
             "--connect",
             self.endpoint,
+            *(["--stall", self.stall] if self.stall else []),
         ]
         return subprocess.Popen(  # its own process group: killed as a whole
             cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=None

@@ -29,6 +29,12 @@ class Asker(Protocol):
 
     def ask_body(self, name: str, op: str, **args: Any) -> Any: ...
 
+    def new_id(self, what: str) -> str:
+        """An id no other call of any agent, past or present, has used."""
+        ...
+
+    def stopping(self) -> bool: ...
+
 
 class RemoteSite:
     """A site as a robot standing at it (or a scout that just saw it) knows it; the pile and
@@ -40,14 +46,24 @@ class RemoteSite:
         self.x: float = d["x"]
         self.y: float = d["y"]
         self.total: int = d["total"]
+        self._seen: dict[str, Any] | None = None
+        self._seen_step = -1
 
     def _get(self, key: str) -> Any:
-        d = self._asker.ask_world("site", id=self.id)
-        return None if d is None else d[key]
+        # read once per step of the agent (a policy pricing twenty auctions reads the pile
+        # it stands at twenty times: twenty round trips to a busy world service made an
+        # excavator fall minutes behind its messages, its heartbeats stopped)
+        if self._seen is None or self._seen_step != self._asker.step:
+            self._seen = self._asker.ask_world("site", id=self.id)
+            self._seen_step = self._asker.step
+        return None if self._seen is None else self._seen[key]
 
     def _set(self, key: str, value: Any) -> None:
         # `by`: a pile that shrinks went into the setter's bucket (the world's record of loads)
-        self._asker.ask_world("site_set", id=self.id, by=self._asker.name, **{key: value})
+        self._seen = self._asker.ask_world(
+            "site_set", id=self.id, by=self._asker.name, **{key: value}
+        )
+        self._seen_step = self._asker.step
 
     remaining = property(lambda s: s._get("remaining") or 0, lambda s, v: s._set("remaining", v))
     # (None only when the agent is stopping: the world service is asked until it answers)
@@ -63,12 +79,21 @@ class RemoteField:
 
     def __init__(self, asker: Asker) -> None:
         self._asker = asker
+        self._at: dict[Point, RemoteSite | None] = {}  # sites never move: asked once per spot
 
     def _site(self, d: dict[str, Any] | None) -> RemoteSite | None:
         return None if d is None else RemoteSite(self._asker, d)
 
     def site_at(self, p: Point) -> RemoteSite | None:
-        return self._site(self._asker.ask_world("site_at", x=p[0], y=p[1]))
+        p = (float(p[0]), float(p[1]))
+        if p not in self._at:
+            if len(self._at) > 4096:
+                self._at.clear()
+            d = self._asker.ask_world("site_at", x=p[0], y=p[1])
+            if d is None and self._asker.stopping():
+                return None  # (not an answer: not kept)
+            self._at[p] = self._site(d)
+        return self._at[p]
 
     def sites_near(self, a: Point, b: Point, r: float) -> list[RemoteSite]:
         found = self._asker.ask_world("sites_near", ax=a[0], ay=a[1], bx=b[0], by=b[1], r=r)
@@ -92,13 +117,13 @@ class RemoteField:
         return None
 
     def drop_mineral(self, p: Point, by: str) -> None:
-        self._asker.ask_world("drop", x=p[0], y=p[1], by=by)
+        self._asker.ask_world("drop", x=p[0], y=p[1], by=by, once=self._asker.new_id("drop"))
 
     def pick_ground(self, g: GroundMineral, by: str) -> None:
         self._asker.ask_world("pick", id=g.id, by=by)
 
     def note_delivery(self, by: str) -> None:
-        self._asker.ask_world("deliver", by=by)
+        self._asker.ask_world("deliver", by=by, once=self._asker.new_id("deliver"))
 
 
 LOOK_DEFAULT: dict[str, Any] = {
@@ -114,8 +139,7 @@ LOOK_DEFAULT: dict[str, Any] = {
 CALLS = frozenset(
     {
         "hauler_arrived",
-        "can_receive",
-        "receive",
+        "take",
         "wake",
         "ready_for",
         "standing_by",
@@ -181,17 +205,23 @@ class PeerBody:
     def hauler_arrived(self, _hauler: Any, task_id: str) -> bool:
         return bool(self._call("hauler_arrived", task_id))
 
-    def can_receive(self, _exc: Any) -> bool:
-        return bool(self._call("can_receive"))
+    def can_receive(self, exc: Any) -> bool:
+        """In the field, asking is taking: the hauler's agent checks that it can receive and
+        takes the mineral in one call, after the world service recorded the hand-over, so
+        the bucket empties (in `Excavator.transfer`) only into a bin that took it.
 
-    def receive(self, exc: Any, task_id: str) -> None:
-        # the world records the hand-over here, as the giver's bucket empties: recorded by the
-        # receiver's agent, it lagged whenever that agent kept the call for its clock loop, and
-        # a giver killed in between had the mineral dropped on the ground by the world while
-        # the kept call still put it in the bin (two minerals out of one: 65 of 64)
-        x, y = exc.pos
-        self._asker.ask_world("handover", by=self.name, src=self._asker.name, x=x, y=y)
-        self._call("receive", task_id)
+        A call that goes unanswered (a lost reply, a starved or killed hauler) is settled by
+        the world service, which records each hand-over once: either it happened, or from
+        now on it never will. Two processes' state cannot otherwise change in one step."""
+        task_id = exc.waiting_for
+        once = self._asker.new_id("handover")
+        taken = self._call("take", task_id, once)
+        if taken is None:
+            taken = self._asker.ask_world("settle", once=once)
+        return bool(taken)
+
+    def receive(self, _exc: Any, _task_id: str) -> None:
+        """Taken already, by `can_receive`."""
 
     def wake(self) -> None:
         self._call("wake")
@@ -212,7 +242,7 @@ class PeerBody:
 def serve_call(robot: Any, caller: PeerBody, method: str, args: list[Any]) -> Any:
     """Run one of `CALLS` on this process's robot, with the calling robot's stand-in."""
     fn: Callable[..., Any] = getattr(robot, method)
-    if method in ("hauler_arrived", "receive"):
+    if method == "hauler_arrived":
         return fn(caller, *args)
     if method == "wake":
         return fn()

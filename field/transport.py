@@ -71,6 +71,38 @@ class Faults:
             return self.latency_s + (self.jitter_s * self._rng.random() if self.jitter_s else 0.0)
 
 
+@dataclass
+class Stalls:
+    """Injected CPU starvation (tests): now and then, after a random wait of `every_s` wall
+    seconds on average, an agent stops for `for_s` seconds, holding its robot, as a process
+    the scheduler does not run. Drawn from its own seeded generator."""
+
+    for_s: float
+    every_s: float
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.for_s <= 0 or self.every_s <= 0:
+            raise ValueError("stall: both durations must be > 0 (FOR@EVERY, in seconds)")
+        self._rng = np.random.default_rng(self.seed)
+        self.due = time.monotonic() + self.wait()
+
+    def wait(self) -> float:
+        return float(self._rng.exponential(self.every_s))
+
+    @classmethod
+    def parse(cls, text: str, seed: int = 0) -> Stalls:
+        """`FOR@EVERY` (seconds), e.g. `0.5@4`."""
+        try:
+            for_s, every_s = (float(x) for x in text.split("@"))
+        except ValueError:
+            raise ValueError(f"stall: {text!r} is not FOR@EVERY (seconds, e.g. 0.5@4)") from None
+        return cls(for_s, every_s, seed)
+
+    def __str__(self) -> str:
+        return f"{self.for_s:g}@{self.every_s:g}"
+
+
 class Inbox:
     """Messages heard from the network, each due at a wall time (now, or later under an
     injected latency); thread-safe. `ready` is set whenever something arrives."""
@@ -86,11 +118,12 @@ class Inbox:
             heapq.heappush(self._heap, (time.monotonic() + delay_s, next(self._serial), msg))
         self.ready.set()
 
-    def due(self) -> list[Message]:
+    def due(self, limit: int | None = None) -> list[Message]:
+        """What is due now, in order of arrival; at most `limit` (the rest stays due)."""
         now = time.monotonic()
         out: list[Message] = []
         with self._lock:
-            while self._heap and self._heap[0][0] <= now:
+            while self._heap and self._heap[0][0] <= now and (limit is None or len(out) < limit):
                 out.append(heapq.heappop(self._heap)[2])
         return out
 

@@ -9,6 +9,7 @@ import re
 import signal
 import sys
 import time
+import zlib
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -39,13 +40,18 @@ def agent(
         float | None, typer.Option(help="Check: the mission's speed factor K", min=0.001)
     ] = None,
     listen: Annotated[str | None, typer.Option(help="Also listen on this endpoint")] = None,
+    stall: Annotated[
+        str | None, typer.Option(help="Fault injection: stop FOR s every ~EVERY s (FOR@EVERY)")
+    ] = None,
 ) -> None:
     """Run one robot as this process, talking only over Zenoh."""
     from field.agent import Agent, AgentError
+    from field.transport import Stalls
 
     logging.basicConfig(level=logging.WARNING, format=f"{name}: %(message)s")
     try:
-        a = Agent(name, mission, connect, speed=speed, listen=listen)
+        stalls = None if stall is None else Stalls.parse(stall, zlib.crc32(name.encode()))
+        a = Agent(name, mission, connect, speed=speed, listen=listen, stalls=stalls)
     except (AgentError, ValueError) as exc:
         fail("agent", str(exc).splitlines()[0])
     signal.signal(signal.SIGTERM, lambda *_: a.stopped.set())

@@ -32,6 +32,10 @@ from field.control import FieldMission
 from tests.field.serial import one_field_mission_at_a_time
 
 SEEDS = [int(s) for s in os.environ.get("REGOLITH_FIELD_CHAOS_SEEDS", "101,202").split(",")]
+STALL = os.environ.get("REGOLITH_FIELD_CHAOS_STALL", "0.4@4")
+"""Injected starvation (`field.transport.Stalls`, FOR@EVERY wall seconds) for every agent of
+the last case: 0.4 s is 40 s of mission time at 100×, past the 30 s failure timeout."""
+CASES = [(s, None) for s in SEEDS] + [(SEEDS[-1] + 101, STALL)]
 SPEED = 100.0
 CHAOS_UNTIL_S = 1200.0  # mission time of random actions; then every killed robot restarts
 WALL_LIMIT_S = 180.0  # a loaded machine slows a real-time mission; ~35 s when it is not
@@ -222,13 +226,13 @@ def _records_sound(m: FieldMission, seed: int) -> None:
 
 @pytest.mark.slow
 @pytest.mark.fleet
-@pytest.mark.parametrize("seed", SEEDS)
-def test_field_mission_under_random_operator_actions(seed: int) -> None:
-    print(f"field chaos seed {seed} (REGOLITH_FIELD_CHAOS_SEEDS={seed} repeats its choices)")
+@pytest.mark.parametrize(("seed", "stall"), CASES)
+def test_field_mission_under_random_operator_actions(seed: int, stall: str | None) -> None:
+    print(f"field chaos seed {seed}, stalls {stall} (REGOLITH_FIELD_CHAOS_SEEDS={seed} repeats it)")
     rng = random.Random(seed)
     decentralized = sorted(n for n, p in POLICIES.items() if p.decentralized)
     with one_field_mission_at_a_time():
-        m = FieldMission(reference_scenario(), seed, rng.choice(decentralized), SPEED)
+        m = FieldMission(reference_scenario(), seed, rng.choice(decentralized), SPEED, stall)
         chaos = Chaos(m, rng, seed)
         holders = OneHolder(m, seed)
         chaos.note(f"policy {m.policy}")

@@ -3,6 +3,7 @@ agent process is started for it."""
 
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -92,3 +93,31 @@ def test_fleet_run_refuses_uncertain_work() -> None:
     assert res.exit_code == 2, res.output
     assert "scenario.uncertainty: field mode runs without the realism options" in res.output
     assert "Traceback" not in res.output and len(res.output.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_an_agent_leaves_when_mission_control_dies_not_while_it_is_slow() -> None:
+    """Its liveliness token is what tells: a world service that does not answer for longer
+    than the old 10 s status poll allowed keeps its agents; a closed session loses them."""
+    import time
+
+    from engine.scenario import reference_scenario
+    from field.fleet import Fleet
+
+    fleet = Fleet(reference_scenario(), 0, "nearest", 20.0)
+    try:
+        proc = fleet.spawn("scout-1").popen
+        deadline = time.monotonic() + 60.0
+        while "scout-1" not in fleet.world.spawned and time.monotonic() < deadline:
+            time.sleep(0.1)
+        time.sleep(1.0)  # (joined: its spawn was answered)
+        fleet.world._lock.acquire()  # every world query waits: slow, not gone
+        try:
+            with pytest.raises(subprocess.TimeoutExpired):
+                proc.wait(timeout=12.0)
+        finally:
+            fleet.world._lock.release()
+        fleet.session.close()  # mission control's session ends: gone
+        assert proc.wait(timeout=20.0) is not None
+    finally:
+        fleet.close()
