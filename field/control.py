@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from engine.errors import CommandRejected, UnknownRobotError
@@ -41,6 +42,16 @@ class RecordView:
     @property
     def reannouncements(self) -> int:
         return int(self._records[self.id].get("reannouncements") or 0)
+
+
+@dataclass(frozen=True)
+class Injection:
+    """An operator task checked and placed, to be sent to the operator's console."""
+
+    task_type: str
+    x: float
+    y: float
+    task_id: str
 
 
 class FieldMission:
@@ -305,7 +316,15 @@ class FieldMission:
     def inject_task(self, task_type: str = "excavate", location: Any = ()) -> str:
         """As `engine.Mission.inject_task` (the same checks, the same snapping to a known site,
         the same action and event), but the auction is run by the operator's console, an
-        agent process of its own, which mission control asks over the wire (`InjectTask`)."""
+        agent process of its own, which mission control asks over the wire (`InjectTask`).
+
+        Three steps, so a caller can leave the middle one, a round trip of up to
+        `INJECT_WAIT_S`, outside its own locks and event loop (app/services/commands.py)."""
+        injection = self.plan_injection(task_type, location)
+        return self.record_injection(injection, self.send_injection(injection))
+
+    def plan_injection(self, task_type: str, location: Any) -> Injection:
+        """Checked and snapped; nothing sent or recorded yet."""
         self._check_running()
         if task_type not in ("excavate", "transport"):
             raise CommandRejected("type: must be 'excavate' or 'transport'")
@@ -322,15 +341,24 @@ class FieldMission:
             if near:
                 s = min(near, key=lambda s: (math.hypot(s.x - x, s.y - y), s.id))
                 x, y, task_id = s.x, s.y, site_task_id(s.x, s.y)
+        return Injection(task_type, x, y, task_id)
+
+    def send_injection(self, injection: Injection) -> str:
+        """The operator's console auctions it; the auction's id. Touches nothing of this
+        object's: safe without the caller's locks."""
+        i = injection
         try:
-            auction_id = self.fleet.inject(task_type, (x, y), task_id)
+            return self.fleet.inject(i.task_type, (i.x, i.y), i.task_id)
         except ValueError as exc:
             raise CommandRejected(str(exc)) from None
-        self._record("inject_task", type=task_type, location=[x, y])
+
+    def record_injection(self, injection: Injection, auction_id: str) -> str:
+        i = injection
+        self._record("inject_task", type=i.task_type, location=[i.x, i.y])
         self._emit(
             self.now,
             "task_injected",
-            {"auction_id": auction_id, "task_type": task_type, "x": x, "y": y},
+            {"auction_id": auction_id, "task_type": i.task_type, "x": i.x, "y": i.y},
         )
         return auction_id
 

@@ -6,10 +6,11 @@ is checked here first so the 422 names the field; the engine stays the final jud
 
 from __future__ import annotations
 
+import asyncio
 from typing import Any
 
 from app.live.runner import LiveMission
-from app.services.errors import Invalid, LimitExceeded, NotFound
+from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.missions import MissionService
 from engine import CommandRejected
 
@@ -77,12 +78,35 @@ class RobotCommands:
 
     async def inject_task(self, mission_id: int, task_type: str, location: Point) -> str:
         lm = await self.missions.live(mission_id)
+        if hasattr(lm.mission, "send_injection"):
+            return await self._inject_over_the_wire(lm, task_type, location)
         with self.gate:
             _inside(lm, location, ("body", "location"))
             try:
                 auction_id = lm.mission.inject_task(task_type=task_type, location=location)
             except CommandRejected as exc:
                 raise Invalid(str(exc), ("body", "location")) from None
+            action = self.missions.engine_action(lm)
+        await self._commit(lm, action)
+        return str(auction_id)
+
+    async def _inject_over_the_wire(self, lm: LiveMission, task_type: str, location: Point) -> str:
+        """A field mission's operator task goes to its console as a query: a round trip of
+        up to 10 s while the console is busy, made on a worker thread without the gate (it
+        held the event loop, every request and live frame of every mission, meanwhile)."""
+        mission: Any = lm.mission
+        with self.gate:
+            _inside(lm, location, ("body", "location"))
+            try:
+                injection = mission.plan_injection(task_type, location)
+            except CommandRejected as exc:
+                raise Invalid(str(exc), ("body", "location")) from None
+        try:
+            auction_id = await asyncio.to_thread(mission.send_injection, injection)
+        except CommandRejected as exc:
+            raise Conflict(str(exc)) from None
+        with self.gate:
+            mission.record_injection(injection, auction_id)
             action = self.missions.engine_action(lm)
         await self._commit(lm, action)
         return str(auction_id)
