@@ -57,6 +57,8 @@ class Injection:
 class FieldMission:
     """A field mission as the live service sees it (duck-types `engine.Mission`)."""
 
+    pausable = False  # its agents keep the wall clock × the mission's speed
+
     def __init__(
         self,
         scenario: Scenario,

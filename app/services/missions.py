@@ -219,8 +219,18 @@ class MissionService:
         action = {"t": t, "kind": kind, "args": args}
         await self.store.record_action(lm.id, action, False, changes)
 
+    def _on_wall_clock(self, lm: LiveMission, what: str) -> None:
+        """A field mission's robots keep the wall clock × its speed, whatever the runner
+        does: 'paused' or a new speed would be shown while they work on (docs/field.md)."""
+        if not getattr(lm.mission, "pausable", True):
+            raise Conflict(
+                f"mission {lm.id} is a field mission: its robots run on the wall clock at "
+                f"a fixed speed; it cannot be {what}"
+            )
+
     async def pause(self, mission_id: int) -> None:
         lm = await self.live(mission_id)
+        self._on_wall_clock(lm, "paused")
         with self.gate:
             lm.paused = True
             t = float(lm.mission.now)
@@ -284,6 +294,7 @@ class MissionService:
             await self.pause(mission_id)
             return
         lm = await self.live(mission_id)
+        self._on_wall_clock(lm, "given another speed")
         with self.gate:
             lm.speed = speed_value(speed)
             lm.reanchor()

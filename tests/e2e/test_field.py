@@ -38,6 +38,14 @@ def _field_mission_on_the_dashboard(
     wait_for(page, "window.__regolith.lastCounters.minerals_delivered >= 3", timeout=60)
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
+    # its robots keep the wall clock: a pause or a new speed is refused, not shown while
+    # they work on
+    for res in (
+        api.post(f"/missions/{mid}/pause"),
+        api.put(f"/missions/{mid}/speed", json={"speed": 5}),
+    ):
+        assert res.status_code == 409 and "field mission" in res.text, res.text
+    assert api.get(f"/missions/{mid}").json()["status"] == "running"
 
     # SIGKILL a hauler just after it won a transport: the task it held must be re-auctioned
     won = wait_for(  # won in the last 20 simulated seconds: still driving to its excavator
