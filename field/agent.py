@@ -31,7 +31,7 @@ from engine.robots import Excavator, Hauler, Operator, Robot, Scout
 from engine.scenario import Scenario
 from engine.spiral import spiral_routes
 from engine.world import generate_world
-from field.remote import CALLS, PeerBody, RemoteField, look, serve_call
+from field.remote import PeerBody, RemoteField, look, serve_body
 from field.transport import Faults, Stalls, ZenohBus, open_session
 from field.wire import (
     body_key,
@@ -257,43 +257,11 @@ class Agent:
             reply = {"ok": False, "error": BUSY}  # the caller asks again
         query.reply(query.key_expr, encode_json(reply))
 
-    def _take(self, giver: PeerBody, task_id: str, once: str) -> bool:
-        """An excavator beside me would empty its bucket into my bin (`PeerBody.can_receive`):
-        if I can receive, and the world service records the hand-over `once` (it refuses one
-        the excavator has given up on), the mineral is mine. The lock stays held meanwhile:
-        my state must not change between the check and the receipt."""
-        robot: Any = self.robot
-        if not robot.can_receive(giver):
-            return False
-        x, y = giver.pos
-        if not self.ask_world("handover", once=once, by=self.name, src=giver.name, x=x, y=y):
-            return False
-        robot.receive(giver, task_id)
-        return True
-
     def _serve_body(self, req: dict[str, Any]) -> dict[str, Any]:
-        if req.get("op") == "look":
-            return {"ok": True, "value": look(self.robot)}
-        caller = req["caller"]
-        method, args = req["args"]["method"], list(req["args"].get("args") or [])
-        serves = "can_receive" if method == "take" else method  # only a hauler takes
-        if method not in CALLS or not hasattr(self.robot, serves):
-            return {"ok": False, "error": f"method: {method!r} is not served"}
-        known: Any = self.ctx.robots.get(caller["name"])
-        stand_in = known if isinstance(known, PeerBody) else None
-        if stand_in is None:
-            stand_in = PeerBody(self, caller["name"], caller["rtype"])
-            self.ctx.robots[caller["name"]] = stand_in  # type: ignore[assignment]
-        stand_in.override = caller
-        try:
-            if method == "take":
-                value: Any = self._take(stand_in, str(args[0]), str(args[1]))
-            else:
-                value = serve_call(self.robot, stand_in, method, args)
-        finally:
-            stand_in.override = None
-        self.step += 1
-        return {"ok": True, "value": value if isinstance(value, bool | None) else None}
+        reply = serve_body(self, self.robot, self.ctx.robots, req)
+        if req.get("op") != "look":
+            self.step += 1  # what the call did may change what the robots look like
+        return reply
 
     # --- what arrives -----------------------------------------------------------------------
     def _note_peer(self, msg: Message) -> None:

@@ -239,6 +239,48 @@ class PeerBody:
         self._call("partner_left")
 
 
+def serve_body(
+    asker: Asker, robot: Any, robots: dict[str, Any], req: dict[str, Any]
+) -> dict[str, Any]:
+    """Answer a body query to this process's robot: a `look`, or one of `CALLS` made by the
+    robot beside it (`robots` gains a stand-in for a caller not met before)."""
+    if req.get("op") == "look":
+        return {"ok": True, "value": look(robot)}
+    caller = req["caller"]
+    method, args = req["args"]["method"], list(req["args"].get("args") or [])
+    serves = "can_receive" if method == "take" else method  # only a hauler takes
+    if method not in CALLS or not hasattr(robot, serves):
+        return {"ok": False, "error": f"method: {method!r} is not served"}
+    known = robots.get(caller["name"])
+    stand_in = known if isinstance(known, PeerBody) else None
+    if stand_in is None:
+        stand_in = robots[caller["name"]] = PeerBody(asker, caller["name"], caller["rtype"])
+    stand_in.override = caller
+    try:
+        if method == "take":
+            value = take(asker, robot, stand_in, str(args[0]), str(args[1]))
+        else:
+            value = serve_call(robot, stand_in, method, args)
+    finally:
+        stand_in.override = None
+    return {"ok": True, "value": value if isinstance(value, bool | None) else None}
+
+
+def take(asker: Asker, hauler: Any, giver: PeerBody, task_id: str, once: str) -> bool:
+    """An excavator beside this hauler would empty its bucket into its bin
+    (`PeerBody.can_receive`): if the hauler can receive, and the world service records the
+    hand-over `once` (it refuses one the excavator has given up on), the mineral is the
+    hauler's. The agent's lock stays held meanwhile: nothing changes between the check and
+    the receipt."""
+    if not hauler.can_receive(giver):
+        return False
+    x, y = giver.pos
+    if not asker.ask_world("handover", once=once, by=asker.name, src=giver.name, x=x, y=y):
+        return False
+    hauler.receive(giver, task_id)
+    return True
+
+
 def serve_call(robot: Any, caller: PeerBody, method: str, args: list[Any]) -> Any:
     """Run one of `CALLS` on this process's robot, with the calling robot's stand-in."""
     fn: Callable[..., Any] = getattr(robot, method)
