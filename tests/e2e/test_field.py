@@ -35,6 +35,14 @@ def _field_mission_on_the_dashboard(
     open_live(page, mid)
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")
     first = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
+    # a new excavator joins (a new agent process) mid-mission and must win work: while the
+    # scouts still find sites (the last ones by ~1300 s; joining later, it raced the last
+    # excavation auctions and could find none left)
+    wait_for(page, "window.__regolith.lastCounters.sites_found >= 2", timeout=60)
+    res = api.post(f"/missions/{mid}/robots", json={"type": "excavator"})
+    assert res.status_code in (200, 201), res.text
+    newcomer = res.json()["name"]
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=30_000)
     wait_for(page, "window.__regolith.lastCounters.minerals_delivered >= 3", timeout=60)
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
@@ -63,11 +71,6 @@ def _field_mission_on_the_dashboard(
         f"window.__regolith.robots.some(r => r.name === '{victim}' && r.alive === false)",
         timeout=30,
     )
-    # a new excavator joins (a new agent process) and must win work
-    res = api.post(f"/missions/{mid}/robots", json={"type": "excavator"})
-    assert res.status_code in (200, 201), res.text
-    newcomer = res.json()["name"]
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=30_000)
     # an operator task, as in a simulated mission: checked (422 naming the field), then
     # auctioned by the operator's console (its own agent process), asked over the wire
     res = api.post(f"/missions/{mid}/tasks", json={"type": "transport", "location": [-5, 10]})
