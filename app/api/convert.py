@@ -40,6 +40,7 @@ def mission_read(row: MissionRow, live: LiveState | None) -> MissionRead:
         seed=row.seed,
         speed="max" if speed is None else speed,
         planner=row.planner,
+        mode=row.mode,  # type: ignore[arg-type]
         scenario_name=row.scenario_name,
         scenario_hash=scenario_data_hash(row.scenario),
         sim_time=live.sim_time if live is not None else row.sim_time,

@@ -21,6 +21,7 @@ TaskType = Literal["excavate", "transport"]
 MissionStatus = Literal[
     "running", "paused", "completed", "timeout", "stalled", "stopped", "interrupted", "failed"
 ]
+MissionMode = Literal["simulated", "field"]
 
 
 def _policy(value: str | int) -> str:
@@ -127,6 +128,11 @@ class MissionRead(BaseModel):
     seed: int
     speed: float | Literal["max"]
     planner: str
+    mode: MissionMode = Field(
+        description='"simulated" (the engine: replayable from scenario, seed, planner and '
+        'actions) or "field" (real agent processes, docs/field.md: not reproducible, so '
+        "never replayed, resumed after a restart or pooled with simulated runs)"
+    )
     scenario_name: str
     scenario_hash: str = Field(
         description="content hash of the scenario (16 hex digits; equal parameters, equal "

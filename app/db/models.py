@@ -58,8 +58,16 @@ class Base(DeclarativeBase):
     }
 
 
+MISSION_MODES = ("simulated", "field")
+
+
 class Mission(Base):
-    """One run: what determines it (scenario, seed, policy, planner) and how it went."""
+    """One run: what determines it (scenario, seed, policy, planner) and how it went.
+
+    `mode` says how it ran: "simulated" (the engine: a pure function of scenario, seed,
+    planner and replayable actions, so it can be replayed) or "field" (real agent processes
+    over Zenoh, docs/field.md: not reproducible, so never replayed, resumed or pooled with
+    simulated runs)."""
 
     __tablename__ = "missions"
 
@@ -70,6 +78,7 @@ class Mission(Base):
     policy: Mapped[str] = mapped_column(String(32))
     current_policy: Mapped[str] = mapped_column(String(32))
     planner: Mapped[str] = mapped_column(String(16))
+    mode: Mapped[str] = mapped_column(String(16), default="simulated", server_default="simulated")
     status: Mapped[str] = mapped_column(String(16), index=True)
     speed: Mapped[float | None] = mapped_column(Float)
     sim_time: Mapped[float] = mapped_column(Float, default=0.0)

@@ -27,6 +27,12 @@ from app.services.store import Store
 from app.settings import Settings
 from engine import Mission, Scenario, reference_scenario
 
+FIELD_NO_RESUME = (
+    "mission {id} is a field mission: its robots were processes of the server that stopped "
+    "and are gone, and a field run cannot be rebuilt by replay (that would continue it as a "
+    "simulated one); it stays interrupted with its records kept: start a new field mission"
+)
+
 
 def speed_value(speed: Speed) -> float | None:
     """API speed → runner speed (None is "max")."""
@@ -178,6 +184,7 @@ class MissionService:
                     "policy": policy,
                     "current_policy": policy,
                     "planner": planner,
+                    "mode": "field" if field else "simulated",
                     "status": "paused" if paused else "running",
                     "speed": rate,
                     "started_at": None if paused else utcnow(),
@@ -257,6 +264,8 @@ class MissionService:
             row = await self.row(mission_id)
             if row.status != "interrupted":
                 raise Conflict(f"mission {mission_id} is {row.status}; it cannot be resumed")
+            if row.mode == "field":
+                raise Conflict(FIELD_NO_RESUME.format(id=mission_id))
             refusal = (
                 f"{self.settings.max_running_missions} missions are already live; "
                 "stop one before resuming another (REGOLITH_MAX_RUNNING_MISSIONS)"
@@ -320,9 +329,9 @@ class MissionService:
     # -- reads -------------------------------------------------------------------------
 
     async def page(
-        self, status: str | None, policy: str | None, limit: int, offset: int
+        self, status: str | None, policy: str | None, mode: str | None, limit: int, offset: int
     ) -> tuple[queries.Page[MissionRow], dict[int, LiveState]]:
-        page = await self.store.read(queries.list_missions, status, policy, limit, offset)
+        page = await self.store.read(queries.list_missions, status, policy, mode, limit, offset)
         states: dict[int, LiveState] = {}
         with self.gate:
             for r in page.items:

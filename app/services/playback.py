@@ -106,8 +106,15 @@ class Playback:
 
     async def state_at(self, mission_id: int, t: float) -> StateAt:
         """The state of mission `mission_id` at simulated time `t` (404 unknown, 422 `t`
-        past the mission's time, 409 if its replay fails)."""
+        past the mission's time, 409 if its replay fails or it is a field mission)."""
         row, live = await self.missions.detail(mission_id)
+        if row.mode == "field":
+            raise Conflict(
+                f"mission {mission_id} is a field mission: playback re-simulates a mission "
+                "from its scenario, seed and actions, and a field run (real agent processes) "
+                "cannot be re-simulated; its stored events and auctions are at "
+                f"/api/missions/{mission_id}/events and /auctions"
+            )
         end = live.sim_time if live is not None else row.sim_time
         if t > end + _EPS:
             raise Invalid(

@@ -31,13 +31,20 @@ def get_mission(session: Session, mission_id: int) -> Mission | None:
 
 
 def list_missions(
-    session: Session, status: str | None, policy: str | None, limit: int, offset: int
+    session: Session,
+    status: str | None,
+    policy: str | None,
+    mode: str | None,
+    limit: int,
+    offset: int,
 ) -> Page[Mission]:
     stmt = select(Mission).options(selectinload(Mission.actions)).order_by(Mission.id.desc())
     if status is not None:
         stmt = stmt.where(Mission.status == status)
     if policy is not None:
         stmt = stmt.where(Mission.current_policy == policy)
+    if mode is not None:
+        stmt = stmt.where(Mission.mode == mode)
     return _page(session, stmt, limit, offset)
 
 

@@ -12,6 +12,7 @@ from app.api.schemas import (
     ActionRead,
     MissionCreate,
     MissionDetail,
+    MissionMode,
     MissionPage,
     MissionRead,
     MissionStatus,
@@ -43,11 +44,12 @@ async def list_missions(
     missions: MissionsDep,
     status: MissionStatus | None = None,
     policy: Annotated[PolicyFilter | None, Query()] = None,  # type: ignore[valid-type]
+    mode: MissionMode | None = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     offset: Annotated[int, Query(ge=0, le=10_000_000)] = 0,
 ) -> MissionPage:
-    """Newest first; filter by status and (current) policy."""
-    page, live = await missions.page(status, policy, limit, offset)
+    """Newest first; filter by status, (current) policy and mode ("simulated" or "field")."""
+    page, live = await missions.page(status, policy, mode, limit, offset)
     items = [mission_read(r, live.get(r.id)) for r in page.items]
     return MissionPage(items=items, total=page.total, limit=limit, offset=offset)
 
