@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from alembic import command
 from alembic.script import ScriptDirectory
 from sqlalchemy import inspect, text
 
@@ -31,4 +32,31 @@ def test_models_match_migrations(db_url: str) -> None:
     engine = make_engine(db_url)
     upgrade(engine, MIGRATIONS)
     assert pending_diff(engine) == []
+    engine.dispose()
+
+
+def test_0003_marks_every_existing_mission_simulated(db_url: str) -> None:
+    """Missions stored before `mode` existed were simulated: upgrading fills that in (not
+    null), and a downgrade drops the column and keeps the rows."""
+    engine = make_engine(db_url)
+    upgrade(engine, MIGRATIONS, "0002")
+    columns = "scenario_name, scenario, seed, policy, current_policy, planner, status, sim_time"
+    row = "'reference', '{}', :seed, 'fcfs', 'fcfs', 'ompl', :status, 0.0"
+    with engine.begin() as conn:
+        for seed, status in enumerate(("completed", "interrupted", "running")):
+            conn.execute(
+                text(f"insert into missions ({columns}, created_at) values ({row}, :at)"),
+                {"seed": seed, "status": status, "at": "2026-11-24 00:00:00"},
+            )
+    upgrade(engine, MIGRATIONS)
+    with engine.connect() as conn:
+        modes = conn.execute(text("select seed, mode from missions order by seed")).all()
+    assert [tuple(r) for r in modes] == [(0, "simulated"), (1, "simulated"), (2, "simulated")]
+    column = next(c for c in inspect(engine).get_columns("missions") if c["name"] == "mode")
+    assert column["nullable"] is False
+    command.downgrade(alembic_config(MIGRATIONS, engine), "0002")
+    names = {c["name"] for c in inspect(engine).get_columns("missions")}
+    assert "mode" not in names
+    with engine.connect() as conn:
+        assert conn.scalar(text("select count(*) from missions")) == 3
     engine.dispose()
