@@ -1,12 +1,12 @@
 // The compare page: pick finished missions of one scenario (or a sweep) and see the three
-// figures per policy. Different scenarios are never pooled, and a run whose policy was
+// figures per policy. Different scenarios are never pooled, nor field runs with simulated ones, and a run whose policy was
 // switched live counts under no single policy (comparegroups.js).
 
 import { $, h, fmt } from "./dom.js";
 import { get, qs } from "./api.js";
 import { barChart, stripChart } from "./charts.js";
 import { KIND_ABBR, KIND_LABEL, TYPE_ABBR } from "./palette.js";
-import { missionMetrics, shortId } from "./missions.js";
+import { fieldMark, missionMetrics, shortId } from "./missions.js";
 import { SweepPanel } from "./sweeps.js";
 import { groupColour as colour, groupLabel, groupOf, groupOrder, groupShort, meanCi, policyText, scenarioKey, scenarios } from "./comparegroups.js";
 
@@ -75,10 +75,10 @@ export class ComparePage {
     const list = scenarios(this.missions);
     if (!list.some((s) => s.key === this.scenario)) this.scenario = list[0]?.key ?? null;
     const sel = $("#compare-scenario");
-    const options = list.map((s) => h("option", { value: s.key, selected: s.key === this.scenario }, `${s.name} · ${s.hash.slice(0, 6)} (${s.count})`));
+    const options = list.map((s) => h("option", { value: s.key, selected: s.key === this.scenario }, `${s.name} · ${s.hash.slice(0, 6)}${s.field ? " · field" : ""} (${s.count})`));
     sel.replaceChildren(...(options.length ? options : [h("option", { value: "" }, "none yet")]));
     sel.disabled = list.length < 2;
-    sel.title = list.length < 2 ? "Every finished mission has this scenario" : "Runs of different scenarios are never pooled: pick one";
+    sel.title = list.length < 2 ? "Every finished mission has this scenario" : "Runs of different scenarios, or field runs and simulated ones, are never pooled: pick one";
   }
 
   /** The finished missions of the picked scenario. */
@@ -97,7 +97,7 @@ export class ComparePage {
       const off = m.mixed_policy && !this.includeMixed;
       return h(
         "tr",
-        { dataset: { mission: m.id, mixed: m.mixed_policy ? "true" : "false", scenario: m.scenario_hash } },
+        { dataset: { mission: m.id, mixed: m.mixed_policy ? "true" : "false", scenario: m.scenario_hash, mode: m.mode } },
         h(
           "td",
           {},
@@ -121,7 +121,7 @@ export class ComparePage {
             },
           }),
         ),
-        h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
+        h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id)), fieldMark(m)),
         h("td", { class: "policy-cell", title: policyText(m) }, policyText(m), m.mixed_policy ? h("span", { class: "badge mixed", title: "The policy was switched during the run" }, "mixed") : null),
         h("td", { class: "scenario-cell", title: `${m.scenario_name} (hash ${m.scenario_hash})` }, m.scenario_name),
         h("td", { class: "num" }, m.seed),
@@ -163,7 +163,8 @@ export class ComparePage {
     const runs = this.runs();
     const present = [...new Set(runs.map((r) => r.group))].filter(Boolean).sort(groupOrder);
     const by = Object.fromEntries(present.map((p) => [p, runs.filter((r) => r.group === p)]));
-    const where = this.sweep ? `sweep ${this.sweep.id} · ${this.sweep.scenario_name}` : this.shown()[0]?.scenario_name;
+    const first = this.shown()[0];
+    const where = this.sweep ? `sweep ${this.sweep.id} · ${this.sweep.scenario_name}` : first && `${first.scenario_name}${first.mode === "field" ? " · field runs" : ""}`;
     $("#compare-n").textContent = runs.length ? `· ${where} · ${runs.length} runs` : "";
     const empty = this.sweep ? "no finished runs in this sweep yet" : "pick finished missions";
     stripChart(

@@ -1,4 +1,6 @@
-// What the compare page may pool: runs of one scenario, grouped by the policy they ran under.
+// What the compare page may pool: runs of one scenario and one mode (simulated or field: a
+// field run is real agent processes, not the engine, docs/field.md), grouped by the policy
+// they ran under.
 // A run whose policy was switched live belongs to no single policy: it is left out unless
 // asked for, and then forms a group of its own (its policies in order, e.g. "FCFS→Coalitions").
 
@@ -6,15 +8,16 @@ import { policyColour, policyLabel, policyRank, policyShort } from "./policies.j
 
 const MIXED_COLOUR = "#8b949e";
 
-/** A scenario's identity: its name and content hash (two files named alike can differ). */
-export const scenarioKey = (m) => `${m.scenario_name}#${m.scenario_hash}`;
+/** What may be pooled: a scenario's name and content hash (two files named alike can differ),
+ * and the mode (field runs are never pooled with simulated ones). */
+export const scenarioKey = (m) => `${m.scenario_name}#${m.scenario_hash}${m.mode === "field" ? "#field" : ""}`;
 
-/** The scenarios among `missions`, most runs first: [{key, name, hash, count}]. */
+/** The scenarios (per mode) among `missions`, most runs first: [{key, name, hash, field, count}]. */
 export function scenarios(missions) {
   const by = new Map();
   for (const m of missions) {
     const k = scenarioKey(m);
-    if (!by.has(k)) by.set(k, { key: k, name: m.scenario_name, hash: m.scenario_hash, count: 0 });
+    if (!by.has(k)) by.set(k, { key: k, name: m.scenario_name, hash: m.scenario_hash, field: m.mode === "field", count: 0 });
     by.get(k).count += 1;
   }
   return [...by.values()].sort((a, b) => b.count - a.count || a.name.localeCompare(b.name));

@@ -228,7 +228,7 @@ export class LiveView {
     this._setDetail(snap.robots);
     // the record's status, never the engine's (a stored state says "running" after a stop
     // or a restart); the record's policy is the current one
-    this.status.set({ status: m.status, policy: m.policy, speed: m.speed, error: m.error });
+    this.status.set({ status: m.status, policy: m.policy, speed: m.speed, error: m.error, mode: m.mode });
     this._frame(snap, { snap: true });
     if (m.status && !LIVE.has(m.status)) this._showFinal(); // ended or interrupted: as stored
   }

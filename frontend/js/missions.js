@@ -7,6 +7,10 @@ import { ENDED } from "./status.js";
 
 const PAGE = 20;
 
+/** The small "field" mark of a field run (real agent processes, docs/field.md), else null. */
+export const fieldMark = (m) =>
+  m.mode === "field" ? h("span", { class: "badge field", title: "A field run (real agent processes): not replayable, kept apart from simulated runs" }, "field") : null;
+
 export class MissionsPage {
   constructor() {
     this.offset = 0;
@@ -61,7 +65,7 @@ export class MissionsPage {
   async refresh() {
     const f = this.filter;
     try {
-      const data = await get(`/missions${qs({ status: f.status.value, policy: f.policy.value, limit: PAGE, offset: this.offset })}`);
+      const data = await get(`/missions${qs({ status: f.status.value, policy: f.policy.value, mode: f.mode.value, limit: PAGE, offset: this.offset })}`);
       this.total = data.total;
       this.render(data.items);
     } catch (err) {
@@ -76,8 +80,8 @@ export class MissionsPage {
       const total = metrics.minerals_total;
       return h(
         "tr",
-        { dataset: { mission: m.id, status: m.status, policy: m.policy, mixed: m.mixed_policy ? "true" : "false" } },
-        h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id))),
+        { dataset: { mission: m.id, status: m.status, policy: m.policy, mixed: m.mixed_policy ? "true" : "false", mode: m.mode } },
+        h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id)), fieldMark(m)),
         h("td", {}, h("span", { class: "badge", dataset: { status: m.status } }, m.status)),
         h("td", { title: m.mixed_policy ? "The policy was switched during the run: initial → … → current" : "" }, policyText(m), m.mixed_policy ? h("span", { class: "badge mixed" }, "mixed") : null),
         h("td", { class: "num" }, m.seed),

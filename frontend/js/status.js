@@ -27,7 +27,10 @@ const ENDINGS = {
 };
 
 /** The sentence under the toolbar for a status, or "" when the badge says enough. */
-export function notice(status, { operator = false, error = null } = {}) {
+export function notice(status, { operator = false, error = null, field = false } = {}) {
+  if (RESUMABLE.has(status) && field) {
+    return "Interrupted: the server stopped while this field mission was live. Its robots were processes of that server and are gone, and a field run cannot be rebuilt by replay, so it cannot be resumed: this is its last stored state. Start a new field mission.";
+  }
   if (RESUMABLE.has(status)) {
     const next = operator ? "Resume rebuilds it from its record and continues." : "An operator can resume it.";
     return `Interrupted: the server stopped while this mission was live, so it is frozen at its last stored state and takes no commands. ${next}`;
@@ -63,6 +66,7 @@ export class MissionStatus {
     this.policy = "";
     this.speed = null;
     this.error = null;
+    this.field = false;
   }
 
   /** Apply what the server said: {status?, policy?, speed?, error?}. */
@@ -71,6 +75,8 @@ export class MissionStatus {
     if (m.policy) this.policy = m.policy;
     if (m.speed !== undefined && m.speed !== null) this.speed = m.speed;
     if (m.error !== undefined) this.error = m.error;
+    if (m.mode) this.field = m.mode === "field";
+    $("#live-field").hidden = !this.field;
     const st = $("#live-status");
     st.textContent = this.status || "…";
     st.dataset.status = this.status;
@@ -98,11 +104,11 @@ export class MissionStatus {
     }
     this.onControls(isOperator(), live);
     const resume = $("#resume-button");
-    resume.hidden = !(isOperator() && RESUMABLE.has(status));
+    resume.hidden = !(isOperator() && RESUMABLE.has(status) && !this.field);
     resume.disabled = resume.hidden || this.resuming;
     resume.textContent = this.resuming ? "Resuming…" : "Resume";
     const box = $("#live-notice");
-    const text = id ? notice(status, { operator: isOperator(), error: this.error }) : "";
+    const text = id ? notice(status, { operator: isOperator(), error: this.error, field: this.field }) : "";
     box.hidden = !text;
     box.dataset.status = status;
     if (box.textContent !== text) box.textContent = text;
