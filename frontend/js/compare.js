@@ -1,6 +1,7 @@
 // The compare page: pick finished missions of one scenario (or a sweep) and see the three
-// figures per policy. Different scenarios are never pooled, nor field runs with simulated ones, and a run whose policy was
-// switched live counts under no single policy (comparegroups.js).
+// figures per policy. Different scenarios are never pooled, nor field runs with simulated
+// ones, and a run whose policy was switched live counts under no single policy
+// (comparegroups.js).
 
 import { $, h, fmt } from "./dom.js";
 import { get, qs } from "./api.js";
