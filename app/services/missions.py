@@ -19,19 +19,13 @@ from app.live.runner import LiveMission, MissionRunner, stream_state
 from app.services import queries
 from app.services.admission import Admission
 from app.services.errors import Conflict, LimitExceeded, NotFound
-from app.services.field_rules import Speed, check_field
+from app.services.field_rules import Speed, check_field, no_resume
 from app.services.replay import revive
 from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
 from app.services.store import Store
 from app.settings import Settings
 from engine import Mission, Scenario, reference_scenario
-
-FIELD_NO_RESUME = (
-    "mission {id} is a field mission: its robots were processes of the server that stopped "
-    "and are gone, and a field run cannot be rebuilt by replay (that would continue it as a "
-    "simulated one); it stays interrupted with its records kept: start a new field mission"
-)
 
 
 def speed_value(speed: Speed) -> float | None:
@@ -265,7 +259,7 @@ class MissionService:
             if row.status != "interrupted":
                 raise Conflict(f"mission {mission_id} is {row.status}; it cannot be resumed")
             if row.mode == "field":
-                raise Conflict(FIELD_NO_RESUME.format(id=mission_id))
+                raise Conflict(no_resume(mission_id))
             refusal = (
                 f"{self.settings.max_running_missions} missions are already live; "
                 "stop one before resuming another (REGOLITH_MAX_RUNNING_MISSIONS)"
