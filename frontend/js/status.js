@@ -102,6 +102,12 @@ export class MissionStatus {
     for (const el of $$("#live [data-control]")) {
       if (!el.closest("#robot-table") && el.id !== "resume-button") el.disabled = !can;
     }
+    // a field mission's robots keep the wall clock at the speed it started with (the server
+    // refuses pause and speed with 409): its speed buttons show that speed, and do nothing
+    for (const b of $$("[data-speed]")) {
+      if (this.field) b.disabled = true;
+      b.title = this.field ? "A field mission runs at a fixed speed on the wall clock" : "";
+    }
     this.onControls(isOperator(), live);
     const resume = $("#resume-button");
     resume.hidden = !(isOperator() && RESUMABLE.has(status) && !this.field);

@@ -21,10 +21,10 @@ from tests.field.serial import one_field_mission_at_a_time
 
 @pytest.mark.fleet
 def test_field_mission_on_the_dashboard(
-    page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
+    operator: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
 ) -> None:
     with one_field_mission_at_a_time():
-        _field_mission_on_the_dashboard(page, console, start_mission, api, server)
+        _field_mission_on_the_dashboard(operator, console, start_mission, api, server)
 
 
 def _field_mission_on_the_dashboard(
@@ -47,7 +47,9 @@ def _field_mission_on_the_dashboard(
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
     # its robots keep the wall clock: a pause or a new speed is refused, not shown while
-    # they work on
+    # they work on (and the dashboard does not offer them)
+    expect(page.locator("[data-speed='0']")).to_be_disabled()
+    expect(page.locator("#policy-select")).to_be_enabled()
     for res in (
         api.post(f"/missions/{mid}/pause"),
         api.put(f"/missions/{mid}/speed", json={"speed": 5}),
