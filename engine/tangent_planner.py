@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_left
+from collections import OrderedDict
 from collections.abc import Callable
 
 import numpy as np
@@ -36,9 +37,13 @@ from engine.geometry import Point, dist, segment_point_distance
 from engine.planning import Path, PlanningError, ShortcutPlanner
 from engine.rims import COS_HALF, Arc, Rim, arc_length, bitangents
 from engine.segment_grid import SegmentGrid, grid_step
+from engine.tangent_field import FlatGraph, GoalField
 from engine.tangent_query import Query
 from engine.world import CLEARANCE, World
 
+_FIELDS = 16
+"""Recent goals whose distance fields a planner keeps (an auction's bidders price one goal
+at a time; a few goals are open at once)."""
 _GROW = 1e-6
 """Rims are planned this much outside the inflated radius, so a tangent segment passes the
 index's strict `distance > radius` test despite rounding."""
@@ -252,22 +257,30 @@ class TangentGraph:
         joined by the start's and the goal's tangents to the rims they see)."""
         if self._index.segment_free(start, goal):
             return (start, goal)
-        route = Query(self, start, goal).search()
-        if route is None:
-            raise PlanningError(f"no path from {start} to {goal}")
-        out: list[Point] = [start]
-        for leg in route:
-            out.extend((leg.polyline() if isinstance(leg, Arc) else leg)[1:])
-        return tuple(out)
+        return polyline(start, goal, Query(self, start, goal).search())
+
+
+def polyline(start: Point, goal: Point, route: list[Leg] | None) -> Path:
+    """The path a robot drives along a route's legs."""
+    if route is None:
+        raise PlanningError(f"no path from {start} to {goal}")
+    out: list[Point] = [start]
+    for leg in route:
+        out.extend((leg.polyline() if isinstance(leg, Arc) else leg)[1:])
+    return tuple(out)
 
 
 class TangentPlanner(ShortcutPlanner):
-    """The `exact` planner: shortest paths over the world's tangent graph."""
+    """The `exact` planner: shortest paths over the world's tangent graph, answered from the
+    goal's distance field (engine/tangent_field.py): the many robots that price one task
+    share its goal's side of the work. The fields of the last `_FIELDS` goals are kept."""
 
     def __init__(self, world: World) -> None:
         super().__init__(world)
         self._world = world
         self._graph: TangentGraph | None = None
+        self._flat: FlatGraph | None = None
+        self._fields: OrderedDict[Point, GoalField] = OrderedDict()
 
     @property
     def graph(self) -> TangentGraph:
@@ -275,8 +288,24 @@ class TangentPlanner(ShortcutPlanner):
             self._graph = TangentGraph(self._world)
         return self._graph
 
+    def field(self, goal: Point) -> GoalField:
+        """The goal's distance field: kept, or made (the whole graph is opened the first time)."""
+        field = self._fields.get(goal)
+        if field is not None:
+            self._fields.move_to_end(goal)
+            return field
+        if self._flat is None:
+            self._flat = FlatGraph(self.graph)
+        field = self._fields[goal] = GoalField(self.graph, self._flat, goal)
+        if len(self._fields) > _FIELDS:
+            self._fields.popitem(last=False)
+        return field
+
     def _solve(self, start: Point, goal: Point) -> Path:
-        return self.graph.shortest(start, goal)
+        # plan() answered a free straight segment already
+        return polyline(start, goal, self.field(goal).route(start, direct_blocked=True))
 
     def close(self) -> None:
         self._graph = None
+        self._flat = None
+        self._fields.clear()
