@@ -21,102 +21,22 @@ a node beyond it reads inf, so an option through it is known to be longer than
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
-import numpy.typing as npt
-from scipy.sparse import csr_matrix  # type: ignore[import-untyped]
 from scipy.sparse.csgraph import dijkstra  # type: ignore[import-untyped]
 
 from engine.geometry import Point, dist
-from engine.rims import ARC_STEP, Arc, arc_length
+from engine.rims import Arc, arc_length
+from engine.tangent_arrays import TAU, FlatGraph, Floats, Ints, StartFan, arc_lengths
 
 if TYPE_CHECKING:
     from engine.tangent_planner import Leg, TangentGraph
 
-Ints = npt.NDArray[np.int64]
-Floats = npt.NDArray[np.float64]
-
-_SLOTS_PER_RIM = 4
-"""The goal's row in the matrix: two tangents per rim, each joined to a node either way."""
 _FEED = 4
 """Start tangents whose segments are tested together (the first is most often the one)."""
 _PRICED = 24
 """A start's tangent points priced first (then 4× as many, as long as one might be shorter)."""
-_TAU = 2.0 * math.pi
-
-
-def _key(rim: Any, angle: Any) -> Any:
-    """A rim's nodes sort by angle after those of the rims before it."""
-    return rim * 8.0 + (angle + math.pi)
-
-
-def arc_lengths(r: Floats, sweep: Floats) -> Floats:
-    """`rims.arc_length` for many arcs at once."""
-    n = np.maximum(1.0, np.ceil(sweep / ARC_STEP))
-    return np.where(sweep <= 1e-12, 0.0, 2.0 * n * r * np.tan(sweep / n / 2.0))
-
-
-class FlatGraph:
-    """The whole tangent graph (every rim opened) as arrays: a CSR matrix for Dijkstra, with one
-    spare row (node `goal`) that each field fills with its goal's edges, and every rim's nodes
-    sorted by (rim, angle) to find a point's neighbours on its rim by bisection."""
-
-    def __init__(self, graph: TangentGraph) -> None:
-        for i in range(len(graph.rims)):
-            graph.ring(i)
-        n = len(graph.points)
-        self.goal = n
-        src = np.repeat(np.arange(n), [len(a) for a in graph.adj])
-        dst = np.fromiter((v for a in graph.adj for v, _, _ in a), np.int64, len(src))
-        cost = np.fromiter((c for a in graph.adj for _, c, _ in a), np.float64, len(src))
-        order = np.lexsort((cost, dst, src))  # one edge per pair of nodes: the shortest
-        src, dst, cost = src[order], dst[order], cost[order]
-        first = np.ones(len(src), dtype=bool)
-        first[1:] = (src[1:] != src[:-1]) | (dst[1:] != dst[:-1])
-        src, dst, cost = src[first], dst[first], cost[first]
-        self.slots = _SLOTS_PER_RIM * len(graph.rims)
-        indptr = np.zeros(n + 2, dtype=np.int64)
-        indptr[1 : n + 1] = np.cumsum(np.bincount(src, minlength=n))
-        indptr[n + 1] = indptr[n] + self.slots
-        self.row = int(indptr[n])  # where the goal's row starts
-        indices = np.concatenate([dst, np.full(self.slots, n)])
-        data = np.concatenate([cost, np.zeros(self.slots)])
-        self.matrix = csr_matrix((data, indices, indptr), shape=(n + 1, n + 1))
-        rims = [(i, a, v) for i, ring in enumerate(graph.rings) if ring for a, v in ring]
-        # sorted (rounding keeps the order of angles, and may only tie two; `neighbours`)
-        self.ring_key = np.array([_key(i, a) for i, a, _ in rims], dtype=np.float64)
-        # one more entry at the end, read (and ignored) where a rim has no node
-        self.ring_angle = np.array([a for _, a, _ in rims] + [0.0], dtype=np.float64)
-        self.ring_node = np.array([v for _, _, v in rims] + [n], dtype=np.int64)
-        sizes = np.array([len(r) if r else 0 for r in graph.rings], dtype=np.int64)
-        self.rim_hi = np.cumsum(sizes)
-        self.rim_lo = self.rim_hi - sizes
-
-    def set_goal_row(self, targets: Ints, costs: Floats) -> None:
-        """The goal's edges (the rest of its row: self-loops, which Dijkstra ignores)."""
-        lo, k = self.row, len(targets)
-        self.matrix.indices[lo : lo + self.slots] = self.goal
-        self.matrix.data[lo : lo + self.slots] = 0.0
-        self.matrix.indices[lo : lo + k] = targets
-        self.matrix.data[lo : lo + k] = costs
-
-    def neighbours(self, rim: Ints, angle: Floats) -> tuple[Ints, Ints, Floats, Floats]:
-        """For points at these angles on these rims: the index (in the ring arrays) of the
-        nearest node counter-clockwise and clockwise (-1 on an empty rim), and the sweeps."""
-        lo, hi = self.rim_lo[rim], self.rim_hi[rim]
-        pos = np.searchsorted(self.ring_key, _key(rim, angle))
-        while True:  # past nodes whose key ties the point's but whose angle is smaller
-            behind = (pos < hi) & (self.ring_angle[np.minimum(pos, len(self.ring_key))] < angle)
-            if not behind.any():
-                break
-            pos = pos + behind
-        empty = hi == lo
-        ccw = np.where(empty, -1, np.where(pos < hi, pos, lo))
-        cw = np.where(empty, -1, np.where(pos > lo, pos - 1, hi - 1))
-        ccw_sweep = np.where(empty, np.inf, (self.ring_angle[ccw] - angle) % _TAU)
-        cw_sweep = np.where(empty, np.inf, (angle - self.ring_angle[cw]) % _TAU)
-        return ccw, cw, ccw_sweep, cw_sweep
 
 
 class GoalField:
@@ -166,9 +86,7 @@ class GoalField:
                 (int(ccw[k]), float(ccw_sweep[k]), True),
                 (int(cw[k]), float(cw_sweep[k]), False),
             ):
-                if j < 0 or any(
-                    ((b - a) % _TAU if out else (a - b) % _TAU) < sweep for b in others
-                ):
+                if j < 0 or any(((b - a) % TAU if out else (a - b) % TAU) < sweep for b in others):
                     continue
                 node, b = int(flat.ring_node[j]), float(flat.ring_angle[j])
                 p = graph.points[node]
@@ -195,26 +113,20 @@ class GoalField:
         )
         self.limit = limit
 
-    def route(self, start: Point, direct_blocked: bool = False) -> list[Leg] | None:
-        """The legs of the shortest route from start to the goal, in order (None if there is
-        none). The straight segment is tested first unless the caller knows it is blocked."""
-        if (
-            not direct_blocked
-            and self.graph._grid.free_few(
-                np.array([start[0]]),
-                np.array([start[1]]),
-                np.array([self.goal[0]]),
-                np.array([self.goal[1]]),
-            )[0]
-        ):
-            return [(start, self.goal)]
+    def route(self, fan: StartFan, direct_blocked: bool = False) -> list[Leg] | None:
+        """The legs of the shortest route from the fan's start to the goal, in order (None if
+        there is none). The straight segment is tested first unless the caller knows it is
+        blocked."""
+        start, goal = fan.start, self.goal
+        if not direct_blocked and self.graph.free_from(start, np.array([goal]))[0]:
+            return [(start, goal)]
         if self.limit == 0.0:
-            self._extend(2.0 * dist(start, self.goal))
-        options = _Options(self, start)
+            self._extend(2.0 * dist(start, goal))
+        options = _Options(self, fan)
         while True:
             found = options.best()
             if found is not None or self.limit == math.inf:
-                return found if found is None else options.legs(found)
+                return found if found is None else options.legs(*found)
             need = max(2.0 * self.limit, options.needed)
             self._extend(math.inf if need > self.reach else need)
             options.reprice()
@@ -225,151 +137,127 @@ class _Options:
     nearest node (or goal tangent point) either way round; the length of each is exact. The
     tangent points are priced in order of |s − t| + |t − goal| (a lower bound of their
     options' lengths), a growing prefix at a time: an option shorter than the bound of the
-    first point not priced needs no more."""
+    first point not priced needs no more. An option is (point, side), side 0 the way
+    counter-clockwise, 1 clockwise."""
 
-    def __init__(self, field: GoalField, start: Point) -> None:
-        self.field, self.start = field, start
-        graph = field.graph
-        pts, exists = graph.tangents(start)
-        rows = np.flatnonzero(exists)
-        pts = pts[rows]
-        near = np.hypot(pts[:, 0] - start[0], pts[:, 1] - start[1])
-        bound = near + np.hypot(pts[:, 0] - field.goal[0], pts[:, 1] - field.goal[1])
-        self.min_near = float(near.min()) if len(near) else math.inf
-        self.all = (rows % len(graph.rims), pts, near, bound)
-        self.m = 0
-        self._sort(_PRICED)
-        self.free: dict[int, bool] = {}  # tangent point -> its segment from the start is free
-        self.arc_ok: dict[tuple[int, bool], bool] = {}  # (point, counter-clockwise) -> free
-        self._price(min(len(rows), _PRICED))
-
-    def _sort(self, m: int) -> None:
-        """Order the tangent points by their bound: the first m, or all of them."""
-        rim, pts, near, bound = self.all
-        if m < len(bound):
-            first = np.argpartition(bound, m)[: m + 1]  # and the smallest bound left out
-            order = first[np.argsort(bound[first], kind="stable")]
-        else:
-            order = np.argsort(bound, kind="stable")
-        self.rim, self.pts, self.near, self.bound = (
-            rim[order],
-            pts[order],
-            near[order],
-            bound[order],
-        )
-        self.ids = order.tolist()  # the caches below are by point, whatever its place here
-        self.total = len(bound)
+    def __init__(self, field: GoalField, fan: StartFan) -> None:
+        self.field, self.fan = field, fan
+        g = field.goal
+        self.bound = fan.near + np.hypot(fan.pts[:, 0] - g[0], fan.pts[:, 1] - g[1])
+        self.total = len(self.bound)
+        self.arc_ok: dict[tuple[int, int], bool] = {}  # (point, side) -> its arc to a goal end
+        self._price(min(self.total, _PRICED))
 
     def _price(self, m: int) -> None:
-        """Price the options of the first m tangent points (options t and t + m: the way
-        counter-clockwise and clockwise from point t)."""
-        f, flat = self.field, self.field.flat
-        self.m = m
-        rim, pts = self.rim[:m], self.pts[:m]
-        self.angle = np.arctan2(pts[:, 1] - f.graph._rim_y[rim], pts[:, 0] - f.graph._rim_x[rim])
-        ccw, cw, ccw_sweep, cw_sweep = flat.neighbours(rim, self.angle)
+        """Order the tangent points by their bound and price the options of the first m."""
+        bound, fan, f = self.bound, self.fan, self.field
+        if m < self.total:
+            first = np.argpartition(bound, m)[: m + 1]  # and the smallest bound left out
+            order = first[np.argsort(bound[first], kind="stable")]
+            self.unpriced = float(bound[order[m]])
+            ids = order[:m]
+        else:
+            ids = np.argsort(bound, kind="stable")
+            self.unpriced = math.inf
+        self.ids = ids
+        rim, angle = fan.rim[ids], fan.angle[ids]
         # a goal tangent point on the rim nearer than the node that way: the route ends there
-        ends = f.end_angle[rim]
-        idx = np.arange(m)
-        sweeps = []
-        ks = []
-        for gap in ((ends - self.angle[:, None]) % _TAU, (self.angle[:, None] - ends) % _TAU):
+        ends = f.end_angle[rim]  # nan where none
+        sweeps, ks = [], []
+        for gap in ((ends - angle[:, None]) % TAU, (angle[:, None] - ends) % TAU):
             gap = np.where(np.isnan(gap), np.inf, gap)
-            k = np.argmin(gap, axis=1)
-            sweeps.append(gap[idx, k])
-            ks.append(k)
-        self.to_end = np.concatenate([sweeps[0] < ccw_sweep, sweeps[1] < cw_sweep])
-        self.sweep = np.concatenate(
-            [np.minimum(sweeps[0], ccw_sweep), np.minimum(sweeps[1], cw_sweep)]
-        )
-        self.end_k = np.concatenate(ks)
-        self.ring_j = np.concatenate([ccw, cw])
-        self.node = flat.ring_node[self.ring_j]  # the sentinel where there is none
-        r = np.concatenate([f.graph._rim_r[rim]] * 2)
-        self.head = np.concatenate([self.near[:m]] * 2) + arc_lengths(
-            r, np.where(np.isinf(self.sweep), 0.0, self.sweep)
-        )
+            second = gap[:, 1] < gap[:, 0]
+            sweeps.append(np.where(second, gap[:, 1], gap[:, 0]))
+            ks.append(second.astype(np.int64))
+        e_sweep = np.stack(sweeps, axis=1)
+        self.end_k = np.stack(ks, axis=1)
+        self.to_end = e_sweep < fan.sweep[ids]
+        self.sweep = np.where(self.to_end, e_sweep, fan.sweep[ids])
+        self.head = fan.head[ids]
+        self.end_dist = np.full(self.end_k.shape, np.inf)
+        if self.to_end.any():
+            end_head = fan.near[ids][:, None] + arc_lengths(
+                f.graph._rim_r[rim][:, None], np.where(self.to_end, e_sweep, 0.0)
+            )
+            self.head = np.where(self.to_end, end_head, self.head)
+            dists = f.end_dist[rim]
+            self.end_dist = np.where(self.end_k == 1, dists[:, 1:2], dists[:, 0:1])
         self.reprice()
 
     def reprice(self) -> None:
         """Each option's length with the field as it now is."""
-        f = self.field
-        tail = np.where(
-            self.to_end,
-            f.end_dist[np.concatenate([self.rim[: self.m]] * 2), self.end_k],
-            f.dist[self.node],
-        )
-        self.key = self.head + np.where(np.isinf(self.sweep), np.inf, tail)
+        tail = np.where(self.to_end, self.end_dist, self.field.dist[self.fan.node[self.ids]])
+        self.key = (self.head + np.where(np.isinf(self.sweep), np.inf, tail)).ravel()
         self.order = np.argsort(self.key, kind="stable").tolist()
         self.needed = math.inf
 
-    def best(self) -> int | None:
+    def best(self) -> tuple[int, int] | None:
         """The shortest option whose tangent and arc are free and whose length the field's
         limit vouches for (None, with `needed` set, if the field must reach further)."""
         while True:
             found = self._best()
-            if found != -1:
+            if found != (-1, -1):
                 return found
-            m = min(self.total, 4 * self.m)
-            self._sort(m)
-            self._price(m)
+            self._price(min(self.total, 4 * len(self.ids)))
 
-    def _best(self) -> int | None:
-        """`best` among the options priced; -1 if one not priced yet might be shorter."""
-        f, m = self.field, self.m
-        unpriced = float(self.bound[m]) if m < self.total else math.inf
+    def _best(self) -> tuple[int, int] | None:
+        """`best` among the options priced; (-1, -1) if one not priced yet might be shorter."""
+        f, fan, ids = self.field, self.fan, self.ids.tolist()
         for pos, o in enumerate(self.order):
             key = float(self.key[o])
-            if key > unpriced:
-                return -1
+            if key > self.unpriced:
+                return (-1, -1)
             if key == math.inf:  # the rest go beyond the field's limit, or nowhere
                 break
-            if key > f.limit + self.min_near:
-                self.needed = key - self.min_near
+            if key > f.limit + fan.min_near:
+                self.needed = key - fan.min_near
                 return None
-            t = o % m
-            ids = self.ids
-            if ids[t] not in self.free:
-                batch = [q % m for q in self.order[pos : pos + 4 * _FEED]]
-                batch = list(dict.fromkeys(q for q in batch if ids[q] not in self.free))[:_FEED]
-                ok = f.graph.free_from(self.start, self.pts[batch]).tolist()
-                self.free.update(zip([ids[q] for q in batch], ok, strict=True))
-            if not self.free[ids[t]]:
+            t, side = ids[o // 2], o % 2
+            if t not in fan.free:
+                batch = [ids[q // 2] for q in self.order[pos : pos + 4 * _FEED]]
+                batch = list(dict.fromkeys(q for q in batch if q not in fan.free))[:_FEED]
+                ok = f.graph.free_from(fan.start, fan.pts[batch]).tolist()
+                fan.free.update(zip(batch, ok, strict=True))
+            if not fan.free[t]:
                 continue
-            side = (ids[t], bool(o < m))
-            if side not in self.arc_ok:
-                self.arc_ok[side] = f.graph._arc_free(int(self.rim[t]), self.arc(o))
-            if self.arc_ok[side]:
-                return int(o)
-        if unpriced < math.inf:
-            return -1
+            cache = self.arc_ok if self.to_end[o // 2, side] else fan.arc_ok
+            if (t, side) not in cache:
+                cache[t, side] = f.graph._arc_free(int(fan.rim[t]), self.arc(o // 2, side))
+            if cache[t, side]:
+                return (o // 2, side)
+        if self.unpriced < math.inf:
+            return (-1, -1)
         self.needed = 2.0 * f.limit
         return None
 
-    def arc(self, o: int) -> Arc:
-        """Option o's arc, from its tangent point to where it joins the field."""
-        f, m = self.field, self.m
-        t = o % m
-        rim = int(self.rim[t])
-        p = (float(self.pts[t, 0]), float(self.pts[t, 1]))
-        if self.to_end[o]:
-            b, q, _ = f.ends[rim][int(self.end_k[o])]
+    def arc(self, k: int, side: int) -> Arc:
+        """The arc of option (k-th point priced, side): from the point to where it joins the
+        field."""
+        f, fan = self.field, self.fan
+        t = int(self.ids[k])
+        rim = int(fan.rim[t])
+        p = (float(fan.pts[t, 0]), float(fan.pts[t, 1]))
+        if self.to_end[k, side]:
+            b, q, _ = f.ends[rim][int(self.end_k[k, side])]
         else:
-            b, q = float(f.flat.ring_angle[self.ring_j[o]]), f.graph.points[int(self.node[o])]
-        sweep, c = float(self.sweep[o]), f.graph.rims[rim]
-        if o < m:
-            return Arc(c, p, q, float(self.angle[t]), sweep, False)
+            b = float(f.flat.ring_angle[fan.ring_j[t, side]])
+            q = f.graph.points[int(fan.node[t, side])]
+        sweep, c = float(self.sweep[k, side]), f.graph.rims[rim]
+        if side == 0:
+            return Arc(c, p, q, float(fan.angle[t]), sweep, False)
         return Arc(c, q, p, b, sweep, True)
 
-    def legs(self, o: int) -> list[Leg]:
-        """Option o's route: the tangent, the arc, then the field's predecessors to the goal."""
-        f, t = self.field, o % self.m
-        arc = self.arc(o)
-        out: list[Leg] = [(self.start, (float(self.pts[t, 0]), float(self.pts[t, 1]))), arc]
-        if self.to_end[o]:
+    def legs(self, k: int, side: int) -> list[Leg]:
+        """The option's route: the tangent, the arc, then the field's predecessors to the
+        goal."""
+        f, fan = self.field, self.fan
+        t = int(self.ids[k])
+        arc = self.arc(k, side)
+        out: list[Leg] = [(fan.start, (float(fan.pts[t, 0]), float(fan.pts[t, 1]))), arc]
+        if self.to_end[k, side]:
             out.append((arc.p if arc.reverse else arc.q, f.goal))
             return out
-        u = int(self.node[o])
+        u = int(fan.node[t, side])
         adj, pred, goal = f.graph.adj, f.pred, f.flat.goal
         while int(pred[u]) != goal:
             v = int(pred[u])

@@ -28,6 +28,7 @@ import math
 from bisect import bisect_left
 from collections import OrderedDict
 from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -37,18 +38,23 @@ from engine.geometry import Point, dist, segment_point_distance
 from engine.planning import Path, PlanningError, ShortcutPlanner
 from engine.rims import COS_HALF, Arc, Rim, arc_length, bitangents
 from engine.segment_grid import SegmentGrid, grid_step
-from engine.tangent_field import FlatGraph, GoalField
+from engine.tangent_arrays import FlatGraph, StartFan
+from engine.tangent_field import GoalField
 from engine.tangent_query import Query
 from engine.world import CLEARANCE, World
 
 _FIELDS = 16
 """Recent goals whose distance fields a planner keeps (an auction's bidders price one goal
 at a time; a few goals are open at once)."""
+_FANS = 512
+"""Recent starts whose fans a planner keeps (~0.1 MB each at 600 craters): an idle robot
+prices every task it hears from where it stands."""
 _GROW = 1e-6
 """Rims are planned this much outside the inflated radius, so a tangent segment passes the
 index's strict `distance > radius` test despite rounding."""
 
 
+T = TypeVar("T")
 XYR = tuple[float, float, float]
 Leg = Path | Arc
 Edge = tuple[int, float, Leg]  # (to node, cost, the leg driven from the edge's start)
@@ -281,6 +287,7 @@ class TangentPlanner(ShortcutPlanner):
         self._graph: TangentGraph | None = None
         self._flat: FlatGraph | None = None
         self._fields: OrderedDict[Point, GoalField] = OrderedDict()
+        self._fans: OrderedDict[Point, StartFan] = OrderedDict()
 
     @property
     def graph(self) -> TangentGraph:
@@ -288,24 +295,39 @@ class TangentPlanner(ShortcutPlanner):
             self._graph = TangentGraph(self._world)
         return self._graph
 
-    def field(self, goal: Point) -> GoalField:
-        """The goal's distance field: kept, or made (the whole graph is opened the first time)."""
-        field = self._fields.get(goal)
-        if field is not None:
-            self._fields.move_to_end(goal)
-            return field
-        if self._flat is None:
+    @property
+    def flat(self) -> FlatGraph:
+        if self._flat is None:  # the whole graph, opened at the first blocked query
             self._flat = FlatGraph(self.graph)
-        field = self._fields[goal] = GoalField(self.graph, self._flat, goal)
-        if len(self._fields) > _FIELDS:
-            self._fields.popitem(last=False)
-        return field
+        return self._flat
+
+    def field(self, goal: Point) -> GoalField:
+        """The goal's distance field, kept or made."""
+        return _recent(self._fields, goal, _FIELDS, lambda: GoalField(self.graph, self.flat, goal))
+
+    def fan(self, start: Point) -> StartFan:
+        """The start's fan, kept or made."""
+        return _recent(self._fans, start, _FANS, lambda: StartFan(self.graph, self.flat, start))
 
     def _solve(self, start: Point, goal: Point) -> Path:
         # plan() answered a free straight segment already
-        return polyline(start, goal, self.field(goal).route(start, direct_blocked=True))
+        route = self.field(goal).route(self.fan(start), direct_blocked=True)
+        return polyline(start, goal, route)
 
     def close(self) -> None:
         self._graph = None
         self._flat = None
         self._fields.clear()
+        self._fans.clear()
+
+
+def _recent(kept: OrderedDict[Point, T], key: Point, most: int, make: Callable[[], T]) -> T:
+    """An LRU look-up: the kept value, or a new one (the least recent dropped past `most`)."""
+    value = kept.get(key)
+    if value is not None:
+        kept.move_to_end(key)
+        return value
+    value = kept[key] = make()
+    if len(kept) > most:
+        kept.popitem(last=False)
+    return value
