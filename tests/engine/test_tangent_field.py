@@ -1,0 +1,112 @@
+"""The exact planner's goal fields (engine/tangent_field.py) give the lengths of the A* query
+over the same graph (engine/tangent_query.py): on the reference world and its scale-10 and
+scale-100 versions, for starts and goals anywhere, hugging a rim (just inside the planned rim
+but outside the crater's clearance, or just outside it) and around one crater, with goals
+shared by many starts as in an auction, and fields dropped and made again."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from engine import reference_scenario
+from engine.geometry import Point, path_length
+from engine.planning import PlanningError
+from engine.tangent_planner import _FIELDS, TangentPlanner
+from engine.world import CLEARANCE, World, generate_world
+from tests.engine.test_tangent_planner import assert_drivable, world_of
+
+_NEAR = (5e-7, 2e-6, 1e-3, 0.5)
+"""Distances from a crater's clearance: inside the planned rim (it is 1e-6 wider), just
+outside it, close, near."""
+
+
+def free_point(world: World, rng: np.random.Generator) -> Point:
+    """A free point: anywhere, or beside a crater (at one of the `_NEAR` gaps)."""
+    while True:
+        if rng.random() < 0.5:
+            p = (float(rng.uniform(0, world.width)), float(rng.uniform(0, world.height)))
+        else:
+            c = world.craters[int(rng.integers(len(world.craters)))]
+            a, gap = rng.uniform(0, 2 * math.pi), _NEAR[int(rng.integers(len(_NEAR)))]
+            d = c.r + CLEARANCE + gap
+            p = (c.x + d * math.cos(a), c.y + d * math.sin(a))
+        if world.is_free(*p):
+            return p
+
+
+def length_or_inf(plan: object, start: Point, goal: Point) -> float:
+    try:
+        path = plan(start, goal)  # type: ignore[operator]
+    except PlanningError:
+        return math.inf
+    return path_length(path)
+
+
+def assert_field_matches_query(
+    world: World, pairs: list[tuple[Point, Point]], planner: TangentPlanner | None = None
+) -> None:
+    planner = planner or TangentPlanner(world)
+    graph = planner.graph
+    for start, goal in pairs:
+        want = length_or_inf(graph.shortest, start, goal)
+        try:
+            path = planner.plan(start, goal)
+        except PlanningError:
+            assert want == math.inf, (start, goal)
+            continue
+        assert_drivable(world, path, start, goal)
+        assert path_length(path) == pytest.approx(want, rel=1e-9, abs=1e-9), (start, goal)
+
+
+@pytest.mark.parametrize(("scale", "goals", "starts"), [(1, 6, 40), (10, 4, 40), (100, 2, 30)])
+def test_the_goal_field_gives_the_querys_lengths(scale: int, goals: int, starts: int) -> None:
+    world = generate_world(reference_scenario().scaled(scale), np.random.default_rng(scale))
+    rng = np.random.default_rng(100 + scale)
+    ends = [free_point(world, rng) for _ in range(goals)]
+    pairs = [(free_point(world, rng), g) for g in ends for _ in range(starts)]
+    pairs += [(g, free_point(world, rng)) for g in ends for _ in range(3)]  # goals as starts
+    order = rng.permutation(len(pairs))  # the goals interleaved, as auctions overlap
+    assert_field_matches_query(world, [pairs[i] for i in order])
+
+
+def test_fields_dropped_and_made_again_give_the_same_paths() -> None:
+    world = generate_world(reference_scenario(), np.random.default_rng(7))
+    rng = np.random.default_rng(7)
+    ends = [free_point(world, rng) for _ in range(_FIELDS + 4)]  # more than are kept
+    pairs = [(free_point(world, rng), ends[int(rng.integers(len(ends)))]) for _ in range(150)]
+    planner = TangentPlanner(world)
+    assert_field_matches_query(world, pairs, planner)
+    assert len(planner._fields) == _FIELDS
+    again = TangentPlanner(world)  # the same queries, fresh: the same paths, bit for bit
+    backwards = TangentPlanner(world)  # the other way round: fields reach other limits
+    for start, goal in pairs[::-1]:
+        assert length_or_inf(backwards.plan, start, goal) == pytest.approx(
+            length_or_inf(planner.plan, start, goal), rel=1e-9
+        )
+    for start, goal in pairs:
+        try:
+            assert again.plan(start, goal) == planner.plan(start, goal)
+        except PlanningError:
+            with pytest.raises(PlanningError):
+                planner.plan(start, goal)
+
+
+def test_around_one_crater_and_between_two() -> None:
+    """No node on the rim but the query's own (one crater), or a route between the start's
+    and the goal's tangents on one rim with nodes on it (two craters)."""
+    rng = np.random.default_rng(3)
+    for craters in ([(50.0, 50.0, 8.0)], [(50.0, 50.0, 8.0), (75.0, 52.0, 6.0)]):
+        world = world_of(craters)
+        pairs = []
+        for _ in range(40):
+            a = rng.uniform(0, 2 * math.pi)
+            d = 8.0 + CLEARANCE + _NEAR[int(rng.integers(len(_NEAR)))]
+            start = (50 + d * math.cos(a), 50 + d * math.sin(a))
+            goal = (50 - 20 * math.cos(a + rng.normal(0, 0.3)), 50 - 20 * math.sin(a))
+            if world.is_free(*start) and world.is_free(*goal):
+                pairs += [(start, goal), (goal, start)]
+        assert len(pairs) > 40
+        assert_field_matches_query(world, pairs)
