@@ -43,12 +43,14 @@ from engine.tangent_field import GoalField
 from engine.tangent_query import Query
 from engine.world import CLEARANCE, World
 
-_FIELDS = 16
-"""Recent goals whose distance fields a planner keeps (an auction's bidders price one goal
-at a time; a few goals are open at once)."""
-_FANS = 512
+_FIELDS = 32
+"""Recent goals whose distance fields a planner keeps (~2.5 MB each at 600 craters): an
+auction's bidders price one goal at a time, a site waiting for an excavator is announced
+again and again, and a few goals are open at once."""
+_FANS = 1024
 """Recent starts whose fans a planner keeps (~0.1 MB each at 600 craters): an idle robot
-prices every task it hears from where it stands."""
+prices every task it hears from where it stands (scale 100's first 1,000 simulated seconds:
+87,230 solves from 1,649 starts to 896 goals)."""
 _GROW = 1e-6
 """Rims are planned this much outside the inflated radius, so a tangent segment passes the
 index's strict `distance > radius` test despite rounding."""
