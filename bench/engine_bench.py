@@ -65,10 +65,10 @@ CHUNK_S = 250.0
 """Simulated seconds advanced between looks at the mission's wall-time budget."""
 
 
-def one_mission(args: tuple[str, int, int, str, float, int, str]) -> dict[str, Any]:
+def one_mission(args: tuple[str, int, int, str, float, int, str, float]) -> dict[str, Any]:
     """One mission, advanced until it ends or its wall time passes `budget` seconds; with
     `profile` > 0, under cProfile, returning that many of its top functions (cumulative)."""
-    policy, seed, scale, planner, budget, profile, busy_bid = args
+    policy, seed, scale, planner, budget, profile, busy_bid, stop = args
     import cProfile
     import io
     import pstats
@@ -93,8 +93,8 @@ def one_mission(args: tuple[str, int, int, str, float, int, str]) -> dict[str, A
     scenario = scenario.model_copy(update={"protocol": protocol})
     m = Mission(scenario, seed, policy, planner)  # type: ignore[arg-type]
     until = 0.0
-    while not m.done and time.perf_counter() - t0 < budget:
-        until += CHUNK_S
+    while not m.done and time.perf_counter() - t0 < budget and until < stop:
+        until = min(until + CHUNK_S, stop)
         m.advance(until)
     if prof is not None:
         prof.disable()
@@ -130,7 +130,7 @@ def one_mission(args: tuple[str, int, int, str, float, int, str]) -> dict[str, A
     }
 
 
-def run_isolated(args: tuple[str, int, int, str, float, int, str]) -> dict[str, Any]:
+def run_isolated(args: tuple[str, int, int, str, float, int, str, float]) -> dict[str, Any]:
     ctx = mp.get_context("spawn")
     with ctx.Pool(1) as pool:
         return pool.apply(one_mission, (args,))
@@ -170,6 +170,12 @@ def main() -> int:
         help="stop a mission after this many wall seconds (its row says how far it got)",
     )
     ap.add_argument(
+        "--until",
+        type=float,
+        default=math.inf,
+        help="stop a mission at this simulated time (its row says the wall and CPU to there)",
+    )
+    ap.add_argument(
         "--profile",
         type=int,
         default=0,
@@ -194,7 +200,9 @@ def main() -> int:
         planner = "exact" if opts.exact_from and scale >= opts.exact_from else opts.planner
         for policy in opts.policies.split(","):
             rows = [
-                run_isolated((policy, s, scale, planner, opts.mission_budget, 0, opts.busy_bid))
+                run_isolated(
+                    (policy, s, scale, planner, opts.mission_budget, 0, opts.busy_bid, opts.until)
+                )
                 for s in range(seeds)
             ]
             wall = statistics.median(r["wall_s"] for r in rows)
@@ -243,6 +251,7 @@ def main() -> int:
                 opts.mission_budget,
                 opts.profile,
                 opts.busy_bid,
+                opts.until,
             )
             print(run_isolated(args)["profile"])
     return 0
