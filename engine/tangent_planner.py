@@ -19,6 +19,11 @@ edge tangent to it, so it never cuts into the crater) with a step of at most `ri
 radians; the edge's cost is that polyline's length, the distance the robot really drives.
 Its excess over the true arc is tan(δ/2)/(δ/2) − 1 ≈ 0.05 % for δ = 5°.
 
+The planner answers from goal fields (engine/tangent_field.py): many robots price one goal,
+so its side of the work is done once, over the whole graph as arrays
+(engine/tangent_arrays.py); `TangentGraph.shortest` is one A* query (engine/tangent_query.py),
+with the same lengths.
+
 Nothing here is random: the same world and query always give the same path.
 """
 
