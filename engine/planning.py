@@ -60,10 +60,8 @@ class StraightLinePlanner:
 
 class ShortcutPlanner:
     """What every obstacle-aware planner shares: a collision-free straight segment is the
-    answer (it is the shortest path), and a repeated query is answered from a per-run cache
-    (straight answers too: robots re-price the tasks they hear, from where they stand, each
-    time an auction closes, and the segment test was most of that); a subclass solves the
-    rest (`_solve`)."""
+    answer (it is the shortest path), and a repeated query is answered from a per-run cache;
+    a subclass solves the rest (`_solve`)."""
 
     def __init__(self, world: World) -> None:
         self.stats = PlannerStats()
@@ -72,19 +70,15 @@ class ShortcutPlanner:
 
     def plan(self, start: Point, goal: Point) -> Path:
         self.stats.queries += 1
-        key = (start, goal)
-        hit = self._cache.get(key)
-        if hit is not None:  # a robot re-pricing a task from where it stands
-            if len(hit) == 2:  # a solved path has a point between (its segment is blocked)
-                self.stats.straight += 1
-            else:
-                self.stats.cached += 1
-            return hit
         if self._index.segment_free(start, goal):
             self.stats.straight += 1
-            path: Path = (start, goal)
-        else:
-            path = self._solve(start, goal)
+            return (start, goal)
+        key = (start, goal)
+        hit = self._cache.get(key)
+        if hit is not None:
+            self.stats.cached += 1
+            return hit
+        path = self._solve(start, goal)
         self._cache[key] = path
         return path
 
