@@ -161,6 +161,11 @@ class Scenario(_Model):
         return data
 
     @property
+    def realism_on(self) -> list[str]:
+        """The realism options this scenario turns on."""
+        return [o for o in REALISM_OPTIONS if getattr(self, o).enabled]
+
+    @property
     def plant_xy(self) -> tuple[float, float]:
         """The processing plant: the given point, or the centre of the area."""
         return self.plant if self.plant is not None else (self.width / 2, self.height / 2)
@@ -250,6 +255,8 @@ _OPTION_DEFAULTS: dict[str, Any] = {
     "uncertainty": Uncertainty(),
     "radio": Radio(),
 }
+REALISM_OPTIONS = tuple(_OPTION_DEFAULTS)
+"""The realism options, in the order they are named (engine/realism.py)."""
 
 
 def reference_scenario() -> Scenario:

@@ -23,7 +23,7 @@ from typing import Any
 
 from engine.messages import Heartbeat
 from engine.robots import OPERATOR
-from engine.scenario import ROBOT_TYPES, Scenario
+from engine.scenario import REALISM_OPTIONS, ROBOT_TYPES, Scenario
 from field.transport import Stalls, open_session
 from field.wire import (
     PREFIX,
@@ -38,7 +38,6 @@ from field.wire import (
 )
 from field.world_service import WorldService
 
-REALISM = ("energy", "docks", "uncertainty", "radio")
 """The scenario's realism options (docs/model.md); field mode runs none of them."""
 INJECT_WAIT_S = 10.0
 """How long (wall) mission control waits for the operator's console to take a task."""
@@ -115,11 +114,11 @@ class Fleet:
         listen_host: str = "127.0.0.1",
         stall: str | None = None,
     ) -> None:
-        on = [o for o in REALISM if getattr(scenario, o).enabled]
+        on = scenario.realism_on
         if on:  # (the agents build their robots without them)
             raise ValueError(
                 f"scenario.{on[0]}: field mode runs without the realism options "
-                f"({', '.join(REALISM)})"
+                f"({', '.join(REALISM_OPTIONS)})"
             )
         self.mission = mission or f"m{uuid.uuid4().hex[:10]}"
         self.port = port or free_port()

@@ -7,16 +7,15 @@ from typing import Literal
 
 from app.services.errors import Invalid
 from engine import Scenario
+from engine.scenario import REALISM_OPTIONS
 
 Speed = float | Literal["max"]
 
 
 def realism_option(scenario: Scenario) -> str | None:
     """The first realism option a scenario turns on (field mode runs none of them)."""
-    for option in ("energy", "docks", "uncertainty", "radio"):
-        if getattr(scenario, option).enabled:
-            return option
-    return None
+    on = scenario.realism_on
+    return on[0] if on else None
 
 
 def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> None:
@@ -34,7 +33,7 @@ def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> 
     if option is not None:
         raise Invalid(
             f"scenario.{option}: field mode runs without the realism options "
-            "(energy, docks, uncertainty, radio)",
+            f"({', '.join(REALISM_OPTIONS)})",
             ("scenario", option),
         )
 
