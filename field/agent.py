@@ -340,7 +340,8 @@ class Agent:
                 self._loop_holds = True
                 try:
                     bus.inbox.ready.clear()
-                    self._stall()
+                    if self.stalls is not None:
+                        self.stalls.take()  # injected: stop, holding the robot
                     t = clock.now()
                     away = t - env.now - AWAKE_S * clock.speed
                     if away > 0:  # this process had no CPU: peers were not silent, I was deaf
@@ -363,13 +364,6 @@ class Agent:
                 wait = min(wait, pending)
             # at least a millisecond: a timer due "now" waits for the wall to catch up
             bus.inbox.ready.wait(min(max(wait, 0.001), 0.05))
-
-    def _stall(self) -> None:
-        """Injected starvation (`Stalls`): stop, holding the robot, as an unscheduled process."""
-        stalls = self.stalls
-        if stalls is not None and time.monotonic() >= stalls.due:
-            time.sleep(stalls.for_s)
-            stalls.due = time.monotonic() + stalls.wait()
 
     def close(self) -> None:
         self.stopped.set()

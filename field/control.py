@@ -57,7 +57,7 @@ class Injection:
 class FieldMission:
     """A field mission as the live service sees it (duck-types `engine.Mission`)."""
 
-    pausable = False  # its agents keep the wall clock × the mission's speed
+    mode = "field"  # as stored (missions.mode): its agents keep the wall clock × its speed
 
     def __init__(
         self,

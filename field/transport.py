@@ -90,6 +90,12 @@ class Stalls:
     def wait(self) -> float:
         return float(self._rng.exponential(self.every_s))
 
+    def take(self) -> None:
+        """Stall now if one is due (the caller holds what a starved process would hold)."""
+        if time.monotonic() >= self.due:
+            time.sleep(self.for_s)
+            self.due = time.monotonic() + self.wait()
+
     @classmethod
     def parse(cls, text: str, seed: int = 0) -> Stalls:
         """`FOR@EVERY` (seconds), e.g. `0.5@4`."""

@@ -11,6 +11,7 @@ from typing import Any
 
 from app.live.runner import LiveMission
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
+from app.services.field_rules import is_field
 from app.services.missions import MissionService
 from engine import CommandRejected
 
@@ -78,7 +79,7 @@ class RobotCommands:
 
     async def inject_task(self, mission_id: int, task_type: str, location: Point) -> str:
         lm = await self.missions.live(mission_id)
-        if hasattr(lm.mission, "send_injection"):
+        if is_field(lm.mission):
             return await self._inject_over_the_wire(lm, task_type, location)
         with self.gate:
             _inside(lm, location, ("body", "location"))

@@ -12,10 +12,10 @@ from engine.scenario import REALISM_OPTIONS
 Speed = float | Literal["max"]
 
 
-def realism_option(scenario: Scenario) -> str | None:
-    """The first realism option a scenario turns on (field mode runs none of them)."""
-    on = scenario.realism_on
-    return on[0] if on else None
+def is_field(mission: object) -> bool:
+    """A live field mission (`field.control.FieldMission`, whose `mode` is the stored one):
+    its robots are processes on the wall clock, its operator tasks go over the wire."""
+    return getattr(mission, "mode", "simulated") == "field"
 
 
 def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> None:
@@ -29,12 +29,12 @@ def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> 
         raise Invalid(
             f"policy: {policy} is centralized; field mode runs decentralized ones", ("policy",)
         )
-    option = realism_option(scenario)
-    if option is not None:
+    on = scenario.realism_on  # (field mode runs none of them)
+    if on:
         raise Invalid(
-            f"scenario.{option}: field mode runs without the realism options "
+            f"scenario.{on[0]}: field mode runs without the realism options "
             f"({', '.join(REALISM_OPTIONS)})",
-            ("scenario", option),
+            ("scenario", on[0]),
         )
 
 

@@ -19,7 +19,7 @@ from app.live.runner import LiveMission, MissionRunner, stream_state
 from app.services import queries
 from app.services.admission import Admission
 from app.services.errors import Conflict, LimitExceeded, NotFound
-from app.services.field_rules import Speed, check_field, no_resume
+from app.services.field_rules import Speed, check_field, is_field, no_resume
 from app.services.replay import revive
 from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
@@ -223,7 +223,7 @@ class MissionService:
     def _on_wall_clock(self, lm: LiveMission, what: str) -> None:
         """A field mission's robots keep the wall clock × its speed, whatever the runner
         does: 'paused' or a new speed would be shown while they work on (docs/field.md)."""
-        if not getattr(lm.mission, "pausable", True):
+        if is_field(lm.mission):
             raise Conflict(
                 f"mission {lm.id} is a field mission: its robots run on the wall clock at "
                 f"a fixed speed; it cannot be {what}"

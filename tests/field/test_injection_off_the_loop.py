@@ -19,6 +19,8 @@ CONSOLE_S = 1.0
 
 
 class SlowConsoleMission:
+    mode = "field"
+
     def __init__(self, gate: threading.Lock) -> None:
         self.gate = gate
         self.actions: list[dict[str, Any]] = []
