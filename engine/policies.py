@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from engine.bidding import BidMemory, Bids, RobotView, distance_bids, time_bids
 from engine.messages import Location, TaskType
@@ -62,6 +62,17 @@ class Policy:
     decentralized = True  # False: some unit with global knowledge decides (the baseline)
     targets_pure = True
     """`bid_targets` only reads: a robot that provably sends no bid may skip asking it."""
+    targets_from_list = False
+    """`bid_targets` reads nothing but the auction list, and `bids` never reads
+    `BidMemory.changed`: a busy robot that sent nothing need not ask again until the list or
+    its own bids change (a hauler hears every re-announcement of every waiting transport).
+    A subclass that overrides either method must say so again."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        own = cls.__dict__
+        if ("bid_targets" in own or "bids" in own) and "targets_from_list" not in own:
+            cls.targets_from_list = False
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         """Of the open auctions the robot can serve, given in opening order, those it bids in now
@@ -179,6 +190,7 @@ class FirstComeFirstServed(Policy):
     number, name = 1, "fcfs"
     label, colour = "FCFS", "#56b4e9"
     description = "bid only in the auction that opened first"
+    targets_from_list = True
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         return earliest(auctions)
@@ -232,6 +244,7 @@ class NearestFirst(Policy):
     number, name = 3, "nearest"
     label, colour = "Nearest", "#009e73"
     description = "bid in every auction; of several awards keep the nearest"
+    targets_from_list = True
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         return list(auctions)

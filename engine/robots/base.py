@@ -210,8 +210,7 @@ class Robot(Charging, Recovery):
                 self.house.cancel(rec.id)
         self.on_task_heard(info)
         if msg.task_type == self.capability:
-            self.open_auctions[msg.auction_id] = info
-            self._in_order = None
+            self.note_auction(info)
             self.consider_bids()
 
     def on_task_heard(self, info: OpenAuction) -> None:
@@ -229,6 +228,7 @@ class Robot(Charging, Recovery):
         info = self.forget_auction(msg.auction_id)
         if self.my_bids.pop(msg.auction_id, None) is not None:
             self._refused = None
+            self._quiet_on = None
         peer = self.peer_open.get(msg.sender)
         if peer is not None:
             peer.pop(msg.auction_id, None)

@@ -13,7 +13,7 @@ from engine.bidding import BidMemory, Bids, refused_all
 from engine.geometry import Point, path_length
 from engine.messages import Ack, Award, Bid
 from engine.planning import PlanningError
-from engine.policies import OpenAuction, PendingAward
+from engine.policies import OpenAuction, PendingAward, Policy
 from engine.robots.core import RobotCore
 
 
@@ -128,15 +128,20 @@ class Bidder(RobotCore):
             return
         policy = self.ctx.policy
         busy = not self.has_room()
-        situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
         every_round = self._every_round
-        if busy and not every_round and policy.targets_pure and self._refused_all():
+        quiet = busy and not every_round
+        if quiet and self._quiet_on is auctions and self._quiet_policy is policy:
+            return  # busy, and nothing I bid from changed since I last had nothing to send
+        situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
+        if quiet and policy.targets_pure and self._refused_all():
             # no room, and -inf said in every auction I know: no bid, whatever the targets
             self._bid_situation = situation
+            self._note_quiet(auctions, policy)
             return
         targets = policy.bid_targets(self, auctions)
-        if busy and not every_round and refused_all(self.my_bids, targets):
+        if quiet and refused_all(self.my_bids, targets):
             self._bid_situation = situation
+            self._note_quiet(auctions, policy)
             return
         mem = BidMemory(
             busy=busy,
@@ -151,6 +156,13 @@ class Bidder(RobotCore):
             bids = self._within_reach(bids)
         for a, rnd, utility in bids:
             self._bid(a, rnd, utility)
+
+    def _note_quiet(self, auctions: list[OpenAuction], policy: Policy) -> None:
+        """Remember that, busy, I had nothing to send for this list (an object never changed
+        in place) and my bids as they are: under a policy whose targets come from the list
+        alone, asking again before either changes gives the same nothing."""
+        if policy.targets_from_list:
+            self._quiet_on, self._quiet_policy = auctions, policy
 
     def _refused_all(self) -> bool:
         """Have I bid -inf in every open auction I can serve? Cached until an auction comes or
@@ -198,6 +210,7 @@ class Bidder(RobotCore):
         prev = self.my_bids.get(a.auction_id)
         self.my_bids[a.auction_id] = (rnd, utility)
         self._refused = None
+        self._quiet_on = None
         if (
             self._silent_when_busy
             and utility == -math.inf

@@ -8,6 +8,8 @@ class, so the state is declared once, here, not again in every role.
 
 from __future__ import annotations
 
+import bisect
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -19,7 +21,7 @@ from engine.auction_rules import Allocation, Duties
 from engine.geometry import Point, path_length, point_along, remaining_path
 from engine.messages import Message, TaskType
 from engine.planning import Path
-from engine.policies import OpenAuction, PendingAward, coalition_partner
+from engine.policies import OpenAuction, PendingAward, Policy, coalition_partner
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -111,6 +113,8 @@ class RobotCore:
         self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
         self._refused: bool | None = None  # -inf bid in every auction of _in_order (cache)
+        self._quiet_on: list[OpenAuction] | None = None  # busy with nothing to send (`Bidder`)
+        self._quiet_policy: Policy | None = None
         self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
         self.reserved: OpenAuction | None = None
         self.pending_awards: list[PendingAward] = []
@@ -229,11 +233,32 @@ class RobotCore:
         self._procs.append(self.env.process(_until_interrupted(gen)))
 
     # --- what I know --------------------------------------------------------------------
+    def note_auction(self, info: OpenAuction) -> None:
+        """An auction I can serve opened. Its place in `_in_order` is found by bisection
+        rather than by sorting again: hundreds of robots hear each of hundreds of open
+        auctions at scale, and a sort per announcement per robot was a tenth of a run."""
+        self.open_auctions[info.auction_id] = info
+        order = self._in_order
+        if order is None or info.auctioneer in self.down:
+            return
+        order = order.copy()  # a new list: a caller may still hold the old one
+        bisect.insort(order, info, key=_opening)
+        self._in_order = order
+        prev = self.my_bids.get(info.auction_id)
+        if prev is None or prev[1] != -math.inf:
+            self._refused = False
+
     def forget_auction(self, auction_id: str) -> OpenAuction | None:
         self.rounds.pop(auction_id, None)
         info = self.open_auctions.pop(auction_id, None)
-        if info is not None:
-            self._in_order = None
+        order = self._in_order
+        if info is None or order is None or info.auctioneer in self.down:
+            return info
+        order = order.copy()
+        order.remove(info)
+        self._in_order = order
+        if self._refused is False:
+            self._refused = None  # the one not refused may be the one gone
         return info
 
     def auctions_in_order(self) -> list[OpenAuction]:
@@ -242,7 +267,7 @@ class RobotCore:
             self._refused = None
             self._in_order = sorted(
                 (a for a in self.open_auctions.values() if a.auctioneer not in self.down),
-                key=lambda a: a.order,
+                key=_opening,
             )
         return self._in_order
 
@@ -331,3 +356,7 @@ def _until_interrupted(gen: Any) -> Any:
         yield from gen
     except simpy.Interrupt:
         return
+
+
+def _opening(a: OpenAuction) -> tuple[float, str]:
+    return a.order

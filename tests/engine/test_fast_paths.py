@@ -8,7 +8,10 @@ injected tasks) and buses (ideal, lossy, late):
   not every robot; a broadcast goes down the list of subscribers made when the last one
   subscribed (`EmbeddedBus._everyone_now`), not a copy made per message;
 - a busy robot that said -inf in every target skips the bidding rules
-  (`engine.bidding.refused_all`);
+  (`engine.bidding.refused_all`), and under a policy whose targets come from the auction
+  list alone it is not asked again until the list or its bids change (`Bidder._note_quiet`);
+- a robot's auctions in opening order are kept up to date as auctions come and go
+  (`RobotCore.note_auction`, `RobotCore.forget_auction`), not sorted again;
 - the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
 - the crater index looks only at the buckets a segment passes through (`CraterIndex`).
 """
@@ -30,6 +33,8 @@ from engine import POLICIES, Mission
 from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
 from engine.liveness import Liveness
+from engine.policies import FirstComeFirstServed, OpenAuction
+from engine.robots.core import RobotCore
 from engine.scenario import Crater
 from engine.world import CLEARANCE, CraterIndex
 from tests.engine.factories import play_actions, small_scenario
@@ -38,6 +43,19 @@ from tests.engine.factories import play_actions, small_scenario
 def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> list[str]:
     r = self.index[receiver]
     return [n for i, n in enumerate(self.names) if i != r and self.heard[r, i] < now - timeout]
+
+
+def _plain_note(self: RobotCore, info: OpenAuction) -> None:
+    self.open_auctions[info.auction_id] = info
+    self._in_order = None
+
+
+def _plain_forget(self: RobotCore, auction_id: str) -> OpenAuction | None:
+    self.rounds.pop(auction_id, None)
+    info = self.open_auctions.pop(auction_id, None)
+    if info is not None:
+        self._in_order = None
+    return info
 
 
 def _play(scenario: Any, seed: int, policy: str, actions: list[tuple[float, str, Any]]) -> str:
@@ -63,17 +81,17 @@ ACTION = st.one_of(
     seed=st.integers(0, 10_000),
     policy=st.sampled_from(list(POLICIES)),
     bus=st.sampled_from([{}, {"loss": 0.1}, {"latency_s": 0.3, "jitter_s": 0.2}]),
-    every_round=st.booleans(),
+    busy_bid=st.sampled_from(["once", "every_round", "silent"]),
     actions=st.lists(st.tuples(st.floats(1.0, 600.0), ACTION), max_size=4),
 )
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-def test_shortcuts_change_nothing(seed, policy, bus, every_round, actions):
+@settings(max_examples=16, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_shortcuts_change_nothing(seed, policy, bus, busy_bid, actions):
     scenario = small_scenario(
         sites=3,
         minerals=6,
         team={"scouts": 2, "excavators": 2, "haulers": 2},
         bus=bus,
-        protocol={"busy_bid": "every_round" if every_round else "once"},
+        protocol={"busy_bid": busy_bid},
     )
     plan = [(t, kind, arg) for t, (kind, arg) in sorted(actions, key=lambda a: a[0])]
     fast = _play(scenario, seed, policy, plan)
@@ -82,6 +100,9 @@ def test_shortcuts_change_nothing(seed, policy, bus, every_round, actions):
         mp.setattr(EmbeddedBus, "_everyone_now", lambda self: list(self._subscribers.items()))
         mp.setattr(engine.robots.bidder, "refused_all", lambda sent, targets: False)
         mp.setattr(Liveness, "silent", _brute_silent)
+        mp.setattr(engine.robots.bidder.Bidder, "_note_quiet", lambda self, auctions, policy: None)
+        mp.setattr(RobotCore, "note_auction", _plain_note)
+        mp.setattr(RobotCore, "forget_auction", _plain_forget)
         plain = _play(scenario, seed, policy, plan)
     assert fast == plain
 
@@ -160,3 +181,25 @@ def test_crater_index_answers_as_a_look_at_every_crater(craters, segments):
         assert index.point_free(x0, y0) == all(
             math.hypot(x0 - c.x, y0 - c.y) > c.r + CLEARANCE for c in cs
         )
+
+
+def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_list():
+    """A busy robot is not asked again while its list and bids stay as they are only under
+    a policy that declares it; a subclass that changes how targets or bids are chosen (a
+    coalition hauler looks at its partner) loses the declaration unless it restates it."""
+
+    class ByPartner(FirstComeFirstServed):
+        def bid_targets(self, view: Any, auctions: Any) -> Any:
+            return []
+
+    class Restated(FirstComeFirstServed):
+        targets_from_list = True
+
+        def bid_targets(self, view: Any, auctions: Any) -> Any:
+            return list(auctions)[-1:]
+
+    assert FirstComeFirstServed.targets_from_list
+    assert not ByPartner.targets_from_list
+    assert Restated.targets_from_list
+    assert not POLICIES["coalition"].targets_from_list
+    assert not POLICIES["lookahead"].targets_from_list
