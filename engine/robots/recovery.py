@@ -25,7 +25,10 @@ class Recovery(RobotCore):
         tasks = tuple(a.task_id for a in self.tasks_held())
         load = self.load()
         self.ctx.bus.publish(
-            Heartbeat(
+            # built from this robot's own state, whose types are the message's: validation
+            # is for what arrives from outside (`field.wire.decode`), and a heartbeat is the
+            # commonest message there is
+            Heartbeat.model_construct(
                 sender=self.name,
                 rtype=self.rtype,
                 t=float(self.env.now),
