@@ -166,7 +166,7 @@ class Bidder(RobotCore):
 
     def _refused_all(self) -> bool:
         """Have I bid -inf in every open auction I can serve? Cached until an auction comes or
-        goes or I bid (`_refused` is reset wherever `_in_order` or `my_bids` changes)."""
+        goes or I bid (`_refused` is updated or reset wherever `_in_order` or `my_bids` changes)."""
         if self._refused is None:
             sent = self.my_bids
             self._refused = refused_all(sent, self.auctions_in_order())
