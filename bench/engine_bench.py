@@ -20,6 +20,7 @@ import resource
 import statistics
 import sys
 import time
+from dataclasses import dataclass, replace
 from typing import Any
 
 
@@ -65,10 +66,25 @@ CHUNK_S = 250.0
 """Simulated seconds advanced between looks at the mission's wall-time budget."""
 
 
-def one_mission(args: tuple[str, int, int, str, float, int, str, float]) -> dict[str, Any]:
-    """One mission, advanced until it ends or its wall time passes `budget` seconds; with
-    `profile` > 0, under cProfile, returning that many of its top functions (cumulative)."""
-    policy, seed, scale, planner, budget, profile, busy_bid, stop = args
+@dataclass(frozen=True)
+class Run:
+    """One mission to measure (sent to a fresh process, so plain picklable fields)."""
+
+    policy: str
+    seed: int
+    scale: int
+    planner: str
+    budget: float  # wall seconds, then it stops (its row says how far it got)
+    busy_bid: str
+    stop: float = math.inf  # simulated seconds, then it stops
+    profile: int = 0  # > 0: under cProfile, returning that many top functions (cumulative)
+
+
+def one_mission(run: Run) -> dict[str, Any]:
+    """One mission, advanced until it ends, its wall time passes `run.budget` seconds or its
+    simulated time reaches `run.stop`."""
+    policy, seed, scale, planner = run.policy, run.seed, run.scale, run.planner
+    budget, profile, busy_bid, stop = run.budget, run.profile, run.busy_bid, run.stop
     import cProfile
     import io
     import pstats
@@ -130,10 +146,10 @@ def one_mission(args: tuple[str, int, int, str, float, int, str, float]) -> dict
     }
 
 
-def run_isolated(args: tuple[str, int, int, str, float, int, str, float]) -> dict[str, Any]:
+def run_isolated(run: Run) -> dict[str, Any]:
     ctx = mp.get_context("spawn")
     with ctx.Pool(1) as pool:
-        return pool.apply(one_mission, (args,))
+        return pool.apply(one_mission, (run,))
 
 
 def slope(points: list[tuple[int, float]]) -> float | None:
@@ -199,17 +215,16 @@ def main() -> int:
         seeds = opts.seeds if scale == 1 else 1
         planner = "exact" if opts.exact_from and scale >= opts.exact_from else opts.planner
         for policy in opts.policies.split(","):
-            rows = [
-                run_isolated(
-                    (policy, s, scale, planner, opts.mission_budget, 0, opts.busy_bid, opts.until)
-                )
+            runs = [
+                Run(policy, s, scale, planner, opts.mission_budget, opts.busy_bid, opts.until)
                 for s in range(seeds)
             ]
+            rows = [run_isolated(r) for r in runs]
             wall = statistics.median(r["wall_s"] for r in rows)
             finished = all(r["finished"] for r in rows)
             if finished:
                 walls.setdefault(policy, []).append((rows[0]["robots"], wall))
-            measured.setdefault(scale, {"policy": policy, "planner": planner, "rows": rows})
+            measured.setdefault(scale, {"run": runs[0], "rows": rows})
             speed = statistics.median(r["makespan_s"] / r["wall_s"] for r in rows)
             delivered = f"{min(r['delivered'] for r in rows)}/{rows[0]['minerals']}"
             print(
@@ -241,19 +256,9 @@ def main() -> int:
     missed = print_targets(measured, slopes)
     if opts.profile:
         for scale in missed:
-            m = measured[scale]
-            print(f"\nprofile, scale {scale}, {m['policy']}, {m['planner']} (one more mission):")
-            args = (
-                m["policy"],
-                0,
-                scale,
-                m["planner"],
-                opts.mission_budget,
-                opts.profile,
-                opts.busy_bid,
-                opts.until,
-            )
-            print(run_isolated(args)["profile"])
+            run = measured[scale]["run"]
+            print(f"\nprofile, scale {scale}, {run.policy}, {run.planner} (one more mission):")
+            print(run_isolated(replace(run, profile=opts.profile))["profile"])
     return 0
 
 
@@ -280,7 +285,7 @@ def print_targets(measured: dict[int, dict[str, Any]], slopes: dict[str, float])
             verdict += f", peak {max(r['peak_mb'] for r in rows):.0f} MB"
         if not verdict.startswith("met"):
             missed.append(scale)
-        name = f"scale {scale}, {measured[scale]['policy']}, median wall"
+        name = f"scale {scale}, {measured[scale]['run'].policy}, median wall"
         print(f"{name:<30} {shown:<15} <= {target:<6g} {verdict}")
     for policy, k in slopes.items():
         verdict = "met" if k <= SLOPE_TARGET else f"{k - SLOPE_TARGET:.2f} over"

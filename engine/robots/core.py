@@ -12,6 +12,7 @@ import bisect
 import math
 from collections import deque
 from dataclasses import dataclass
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import simpy
@@ -29,6 +30,8 @@ if TYPE_CHECKING:
 
 DONE_MEMORY = 8
 """How many finished task ids a heartbeat repeats, for auctioneers that missed a TaskDone."""
+_OPENING = attrgetter("order")
+"""An open auction's place in opening order (`OpenAuction.order`), as a sort key."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -242,7 +245,7 @@ class RobotCore:
         if order is None or info.auctioneer in self.down:
             return
         order = order.copy()  # a new list: a caller may still hold the old one
-        bisect.insort(order, info, key=_opening)
+        bisect.insort(order, info, key=_OPENING)
         self._in_order = order
         prev = self.my_bids.get(info.auction_id)
         if prev is None or prev[1] != -math.inf:
@@ -255,7 +258,7 @@ class RobotCore:
         if info is None or order is None or info.auctioneer in self.down:
             return info
         order = order.copy()
-        order.remove(info)
+        del order[bisect.bisect_left(order, info.order, key=_OPENING)]  # openings are unique
         self._in_order = order
         if self._refused is False:
             self._refused = None  # the one not refused may be the one gone
@@ -267,7 +270,7 @@ class RobotCore:
             self._refused = None
             self._in_order = sorted(
                 (a for a in self.open_auctions.values() if a.auctioneer not in self.down),
-                key=_opening,
+                key=_OPENING,
             )
         return self._in_order
 
@@ -356,7 +359,3 @@ def _until_interrupted(gen: Any) -> Any:
         yield from gen
     except simpy.Interrupt:
         return
-
-
-def _opening(a: OpenAuction) -> tuple[float, str]:
-    return a.order
