@@ -31,15 +31,15 @@ from engine.robots import Excavator, Hauler, Operator, Robot, Scout
 from engine.scenario import Scenario
 from engine.spiral import spiral_routes
 from engine.world import generate_world
+from field.link import Link
 from field.remote import PeerBody, RemoteField, look, serve_body
 from field.transport import Faults, Stalls, ZenohBus, open_session
+from field.trust import CONTROL, Credential, Rejected
 from field.wire import (
     body_key,
     check_segment,
     command_key,
     decode_inject,
-    decode_json,
-    encode_json,
     event_key,
     operator_key,
     presence_key,
@@ -61,6 +61,8 @@ BUSY_RETRIES = 4
 DELIVER_PER_TURN = 100
 PRESENCE_GRACE_S = 3.0
 """How long mission control's liveliness token may be gone before its agents leave."""
+REPORT_REJECTIONS_S = 1.0
+"""How often (wall) an agent tells mission control what it dropped, when that changed."""
 
 
 class AgentError(RuntimeError):
@@ -88,6 +90,7 @@ class Agent:
         name: str,
         mission: str,
         connect: str,
+        credential: Credential,
         speed: float | None = None,
         listen: str | None = None,
         faults: Faults | None = None,
@@ -95,6 +98,11 @@ class Agent:
     ) -> None:
         self.name = check_segment(name, "name")
         self.mission = check_segment(mission, "mission")
+        if (credential.name, credential.mission) != (name, mission):
+            raise AgentError(
+                f"credentials: issued to {credential.name!r} of mission {credential.mission!r}, "
+                f"not {name!r} of {mission!r}"
+            )
         self.step = 0
         # the robot's state: the clock loop holds it while it steps the robot, the query
         # handlers while they serve a peer; the loop lets go while it waits for an answer
@@ -105,6 +113,9 @@ class Agent:
         self.stopped = threading.Event()
         self.stalls = stalls
         self.session = open_session(listen=listen, connect=connect)
+        self.link = Link(self.session, credential, f"agent {name}")
+        self._reported_rejections = 0
+        self._next_rejection_report = 0.0
         spawn = self._spawn()
         if speed is not None and abs(speed - spawn["speed"]) > 1e-9:
             raise AgentError(
@@ -130,7 +141,7 @@ class Agent:
         )
         ctx.report = self.report
         ctx.field = RemoteField(self)  # type: ignore[assignment]
-        self.bus = ZenohBus(self.session, mission, ctx.liveness, self._note_peer, faults)
+        self.bus = ZenohBus(self.link, ctx.liveness, self._note_peer, faults)
         ctx.bus = self.bus  # type: ignore[assignment]
         self.ctx = ctx
         self._events = self.session.declare_publisher(event_key(mission, name))
@@ -171,7 +182,7 @@ class Agent:
         robot.start(joined_late=bool(spawn["joined_late"]))
 
     # --- queries ----------------------------------------------------------------------------
-    def _ask(self, key: str, req: dict[str, Any]) -> dict[str, Any] | None:
+    def _ask(self, key: str, req: dict[str, Any], expect: str) -> dict[str, Any] | None:
         # the clock loop lets go of the robot while it waits: a peer asking this robot
         # something meanwhile is answered, not refused as busy (two robots asking each
         # other at once, each holding its own lock, both heard "busy" and took it as "not
@@ -181,10 +192,7 @@ class Agent:
             self._loop_holds = False
             self.lock.release()
         try:
-            replies = self.session.get(key, payload=encode_json(req), timeout=QUERY_TIMEOUT_S)
-            for reply in replies:
-                if reply.ok is not None:
-                    return decode_json(reply.ok.payload.to_bytes())
+            return self.link.ask(key, req, expect, QUERY_TIMEOUT_S)
         except Exception:  # the session closed under a robot still running at shutdown
             if not self.stopped.is_set():
                 raise
@@ -203,7 +211,9 @@ class Agent:
     def _spawn(self) -> dict[str, Any]:
         deadline = time.monotonic() + 30.0
         while time.monotonic() < deadline:
-            rep = self._ask(world_key(self.mission), {"op": "spawn", "args": {"name": self.name}})
+            rep = self._ask(
+                world_key(self.mission), {"op": "spawn", "args": {"name": self.name}}, CONTROL
+            )
             if rep is not None:
                 if not rep.get("ok"):
                     raise AgentError(str(rep.get("error")))
@@ -217,7 +227,7 @@ class Agent:
         not a fact: a pile read as empty for want of a reply would be abandoned for good).
         None only for a refused request, or once the agent is stopping."""
         while True:
-            rep = self._ask(world_key(self.mission), {"op": op, "args": args})
+            rep = self._ask(world_key(self.mission), {"op": op, "args": args}, CONTROL)
             if rep is not None:
                 if not rep.get("ok"):
                     log.warning("world %s refused: %s", op, rep.get("error"))
@@ -232,7 +242,7 @@ class Agent:
         that says it is busy is there: it is asked again, a few times."""
         req = {"op": op, "args": args, "caller": look(self.robot)}
         for _ in range(BUSY_RETRIES):
-            rep = self._ask(body_key(self.mission, name), req)
+            rep = self._ask(body_key(self.mission, name), req, name)
             if rep is None or self.stopped.is_set():
                 return None
             if rep.get("ok"):
@@ -242,23 +252,31 @@ class Agent:
         return None
 
     def _on_body(self, query: Any) -> None:
-        """Another robot looks at this one, or acts on it (Zenoh's thread)."""
-        req = decode_json(query.payload.to_bytes() if query.payload is not None else b"")
-        reply: dict[str, Any] = {"ok": False, "error": "malformed request"}
-        if req is not None and self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
+        """Another robot looks at this one, or acts on it (Zenoh's thread). Only a member
+        of the mission is answered, and a call only from the robot it names as the caller."""
+        got = self.link.take_query(query)
+        if got is None:
+            return
+        opened, req = got
+        caller = req.get("caller")
+        if req.get("op") != "look" and (
+            not isinstance(caller, dict) or caller.get("name") != opened.sender
+        ):
+            self.link.reply(query, req, {"ok": False, "error": "caller: not the signer"})
+            return
+        reply: dict[str, Any] = {"ok": False, "error": BUSY}  # the caller asks again
+        if self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
             try:
-                reply = self._serve_body(req)
-            except (KeyError, TypeError, ValueError) as exc:
+                reply = self._serve_body(req, query.payload.to_bytes())
+            except (KeyError, TypeError, ValueError, IndexError) as exc:
                 reply = {"ok": False, "error": str(exc)[:200]}
             finally:
                 self.lock.release()
             self.bus.inbox.ready.set()  # the clock loop: what the call triggered is due now
-        elif req is not None:
-            reply = {"ok": False, "error": BUSY}  # the caller asks again
-        query.reply(query.key_expr, encode_json(reply))
+        self.link.reply(query, req, reply)
 
-    def _serve_body(self, req: dict[str, Any]) -> dict[str, Any]:
-        reply = serve_body(self, self.robot, self.ctx.robots, req)
+    def _serve_body(self, req: dict[str, Any], frame: bytes) -> dict[str, Any]:
+        reply = serve_body(self, self.robot, self.ctx.robots, req, frame)
         if req.get("op") != "look":
             self.step += 1  # what the call did may change what the robots look like
         return reply
@@ -270,8 +288,13 @@ class Agent:
             self.ctx.robots[msg.sender] = PeerBody(self, msg.sender, rtype)  # type: ignore[assignment]
 
     def _on_command(self, sample: Any) -> None:
-        cmd = decode_json(sample.payload.to_bytes())
-        if cmd is None:
+        """Commands are mission control's alone (signed with its credential)."""
+        got = self.link.open_json(str(sample.key_expr), sample.payload.to_bytes())
+        if got is None:
+            return
+        opened, cmd = got
+        if opened.sender != CONTROL:
+            self._refuse(opened.sender, "not mission control", "a command")
             return
         if cmd.get("cmd") == "stop":
             self.stopped.set()
@@ -284,8 +307,16 @@ class Agent:
             log.warning("dropped an unknown command %r", cmd.get("cmd"))
 
     def _on_task(self, query: Any) -> None:
-        """The operator's console: mission control asks it to auction an operator task."""
-        task = decode_inject(query.payload.to_bytes() if query.payload is not None else b"")
+        """The operator's console: mission control asks it to auction an operator task (the
+        operator's authority is mission control's: it checked the operator's token)."""
+        got = self.link.take_query(query)
+        if got is None:
+            return
+        opened, req = got
+        if opened.sender != CONTROL:
+            self._refuse(opened.sender, "not mission control", "an operator task")
+            return
+        task = decode_inject({k: v for k, v in req.items() if k != "rid"})
         reply: dict[str, Any] = {"ok": False, "error": "malformed operator task"}
         if task is not None and not self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
             reply = {"ok": False, "error": "busy"}  # mission control asks again
@@ -298,12 +329,15 @@ class Agent:
                 self.bus.inbox.ready.set()  # the clock loop: its announcement is due now
             finally:
                 self.lock.release()
-        query.reply(query.key_expr, encode_json(reply))
+        self.link.reply(query, req, reply)
+
+    def _refuse(self, who: str, reason: str, what: str) -> None:
+        self.link.opener.rejections.count(Rejected(reason, who, what))
 
     def report(self, data: dict[str, Any]) -> None:
         """An event or auction record for mission control (robots never read these)."""
         try:
-            self._events.put(encode_json(data))
+            self.link.put(event_key(self.mission, self.name), data, self._events)
         except Exception as exc:  # pragma: no cover - a closed session at shutdown
             log.debug("report failed: %s", exc)
 
@@ -356,6 +390,7 @@ class Agent:
                         bus.deliver(msg, float(env.now))
                     self.step += 1
                     nxt = env.peek()
+                    self._report_rejections()
                 finally:
                     self._loop_holds = False
             wait = 0.05 if nxt == float("inf") else (nxt - clock.now()) / clock.speed
@@ -364,6 +399,18 @@ class Agent:
                 wait = min(wait, pending)
             # at least a millisecond: a timer due "now" waits for the wall to catch up
             bus.inbox.ready.wait(min(max(wait, 0.001), 0.05))
+
+    def _report_rejections(self) -> None:
+        """What this agent dropped, for the mission's record (when it changed, at most
+        once per `REPORT_REJECTIONS_S`)."""
+        now = time.monotonic()
+        total = self.link.opener.rejections.total
+        if total != self._reported_rejections and now >= self._next_rejection_report:
+            self._reported_rejections, self._next_rejection_report = (
+                total,
+                now + REPORT_REJECTIONS_S,
+            )
+            self.report({"kind": "rejections", **self.link.rejections})
 
     def close(self) -> None:
         self.stopped.set()

@@ -96,6 +96,18 @@ class FieldMission:
     def policy(self) -> str:
         return self.fleet.world.policy
 
+    def processes(self) -> int:
+        """Agent processes of this mission still running (the server's process budget)."""
+        fleet = self.fleet
+        procs = [*fleet.procs.values(), *([fleet.operator] if fleet.operator else [])]
+        return sum(1 for p in procs if p.popen.poll() is None)
+
+    def rejections(self) -> dict[str, Any]:
+        """What this mission's processes dropped or refused from the bus: frames from
+        strangers or in another's name, invalid reports (mission control), each agent's own
+        count, and requests the world service refused its members."""
+        return {**self.fleet.recorder.rejections(), "world_refused": self.fleet.world.refused}
+
     def subscribe(self, fn: Callable[[Event], None]) -> None:
         self._subscribers.append(fn)
 
@@ -252,6 +264,7 @@ class FieldMission:
             "policy_changes": sum(1 for a in self.actions if a["kind"] == "set_policy"),
             "field": True,
             "processes": len(self.fleet.history),
+            "rejections": self.rejections(),
             "transport": {"kind": "zenoh", "endpoint": self.fleet.endpoint},
         }
 

@@ -17,22 +17,20 @@ import sys
 import threading
 import time
 import uuid
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
-from engine.messages import Heartbeat
 from engine.robots import OPERATOR
 from engine.scenario import REALISM_OPTIONS, ROBOT_TYPES, Scenario
+from field.intake import Recorder
+from field.link import Link
 from field.transport import Stalls, open_session
+from field.trust import Authority, Credential
 from field.wire import (
     PREFIX,
     InjectTask,
     body_key,
     command_key,
-    decode,
-    decode_json,
-    encode_json,
     messages_selector,
     operator_key,
 )
@@ -55,51 +53,6 @@ class Proc:
     popen: subprocess.Popen[bytes]
     started_at: float
     killed_at: float | None = None
-
-
-@dataclass
-class Recorder:
-    """Everything mission control hears: protocol messages (validated, counted), events and
-    auction records (the latest version of each auction)."""
-
-    messages: int = 0
-    malformed: int = 0
-    by_type: dict[str, int] = field(default_factory=dict)
-    events: list[dict[str, Any]] = field(default_factory=list)
-    heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
-    auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
-    lock: threading.Lock = field(default_factory=threading.Lock)
-    on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
-
-    def on_message(self, sample: Any) -> None:
-        msg = decode(sample.payload.to_bytes())
-        with self.lock:
-            if msg is None:
-                self.malformed += 1
-                return
-            self.messages += 1
-            kind = type(msg).__name__.lower()
-            self.by_type[kind] = self.by_type.get(kind, 0) + 1
-            if isinstance(msg, Heartbeat):
-                self.heartbeats[msg.sender] = msg
-        if self.on_heard is not None:
-            self.on_heard(msg.sender, (msg.x, msg.y) if isinstance(msg, Heartbeat) else None)
-
-    def on_report(self, sample: Any) -> None:
-        data = decode_json(sample.payload.to_bytes())
-        if data is None:
-            return
-        with self.lock:
-            if data.get("kind") == "auction" and isinstance(data.get("record"), dict):
-                rec = data["record"]
-                self.auctions[str(rec.get("id"))] = rec
-            elif data.get("kind") == "event" and data.get("by") != "world":
-                # (the world service's own events come in by `on_world_event`, once)
-                self.events.append(data)
-
-    def on_world_event(self, data: dict[str, Any]) -> None:
-        with self.lock:
-            self.events.append(data)
 
 
 class Fleet:
@@ -128,7 +81,10 @@ class Fleet:
             Stalls.parse(stall)  # ValueError naming the option, before any process starts
         self.stall = stall  # injected starvation for every agent (`Stalls`, FOR@EVERY)
         self.session = open_session(listen=self.endpoint)
-        self.recorder = Recorder()
+        # the mission's authority: only the processes it issues credentials to are heard
+        self.authority = Authority(self.mission)
+        self.link = Link(self.session, self.authority.control, f"mission {self.mission}")
+        self.recorder = Recorder(self.link)
         self._subs = [
             self.session.declare_subscriber(
                 messages_selector(self.mission), self.recorder.on_message
@@ -138,7 +94,7 @@ class Fleet:
             ),
         ]
         self.world = WorldService(
-            self.session, self.mission, scenario, seed, policy, speed, self.recorder.on_world_event
+            self.link, scenario, seed, policy, speed, self.recorder.on_world_event
         )
         self.recorder.on_heard = self.world.note_heard
         self.procs: dict[str, Proc] = {}
@@ -162,7 +118,16 @@ class Fleet:
         self._settled.pop(name, None)
         return proc
 
+    def credential(self, name: str) -> Credential:
+        """A new credential for `name` (a new generation: the last one's stops counting),
+        for an agent started here or on another machine (docs/field.md)."""
+        role = OPERATOR if name == OPERATOR else name.rsplit("-", 1)[0]
+        return self.authority.issue(name, role)
+
     def _start(self, name: str) -> subprocess.Popen[bytes]:
+        """An agent process; its credential goes in on its standard input (no file, no
+        command line, nothing another user of the machine can read)."""
+        cred = self.credential(name)
         cmd = [
             sys.executable,
             "-m",
@@ -174,11 +139,23 @@ class Fleet:
             self.mission,
             "--connect",
             self.endpoint,
+            "--credentials",
+            "-",
             *(["--stall", self.stall] if self.stall else []),
         ]
-        return subprocess.Popen(  # its own process group: killed as a whole
-            cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=None
+        popen = subprocess.Popen(  # its own process group: killed as a whole
+            cmd,
+            start_new_session=True,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=None,
         )
+        assert popen.stdin is not None
+        with contextlib.suppress(BrokenPipeError):
+            popen.stdin.write(cred.to_json().encode() + b"\n")
+        with contextlib.suppress(BrokenPipeError):
+            popen.stdin.close()
+        return popen
 
     def up(self, operator: bool = False) -> None:
         """One agent per robot of the roster and, with `operator`, the operator's console (an
@@ -197,16 +174,13 @@ class Fleet:
         req = InjectTask.model_validate({"v": 1, "cmd": "inject_task", **fields})
         deadline = time.monotonic() + INJECT_WAIT_S
         while time.monotonic() < deadline:  # (it may still be starting)
-            for reply in self.session.get(
-                operator_key(self.mission), payload=req.model_dump_json().encode(), timeout=2.0
-            ):
-                if reply.ok is None:
-                    continue
-                rep = decode_json(reply.ok.payload.to_bytes())
-                if rep is not None and rep.get("ok"):
-                    return str(rep["value"]["auction_id"])
-                if rep is None or rep.get("error") != "busy":
-                    raise ValueError(f"inject_task: refused by the operator console: {rep}")
+            rep = self.link.ask(
+                operator_key(self.mission), req.model_dump(exclude={"v"}), OPERATOR, 2.0
+            )
+            if rep is not None and rep.get("ok"):
+                return str(rep["value"]["auction_id"])
+            if rep is not None and rep.get("error") != "busy":
+                raise ValueError(f"inject_task: refused by the operator console: {rep}")
             time.sleep(0.1)
         raise ValueError("inject_task: the operator console did not answer")
 
@@ -255,25 +229,21 @@ class Fleet:
                     self._lost(name)
 
     def _answers(self, name: str) -> bool:
-        req = encode_json({"op": "look", "args": {}, "caller": {"name": "mission-control"}})
         with contextlib.suppress(Exception):
-            for reply in self.session.get(body_key(self.mission, name), payload=req, timeout=2.0):
-                if reply.ok is not None:
-                    return True
+            req = {"op": "look", "args": {}}
+            return self.link.ask(body_key(self.mission, name), req, name, 2.0) is not None
         return False
 
     def set_policy(self, policy: str) -> None:
         self.world.policy = policy
-        self.session.put(
-            command_key(self.mission), encode_json({"cmd": "set_policy", "policy": policy})
-        )
+        self.link.put(command_key(self.mission), {"cmd": "set_policy", "policy": policy})
 
     def close(self) -> None:
         """Stop every agent (asked first, then SIGKILL to any group still there)."""
         self._closing.set()
         self._watcher.join(timeout=5.0)
         with contextlib.suppress(Exception):
-            self.session.put(command_key(self.mission), encode_json({"cmd": "stop"}))
+            self.link.put(command_key(self.mission), {"cmd": "stop"})
         deadline = time.monotonic() + 3.0
         everyone = [*self.history, *([self.operator] if self.operator else [])]
         for proc in everyone:
@@ -378,6 +348,7 @@ def run_fleet(
             "speed": speed,
             "messages": rec.messages,
             "malformed": rec.malformed,
+            "rejections": {**rec.rejections(), "world_refused": fleet.world.refused},
             "by_type": dict(sorted(rec.by_type.items())),
             "world_queries": fleet.world.queries,
         }

@@ -10,6 +10,7 @@ agent. A peer that does not answer (killed, unreachable) is seen as not there.
 
 from __future__ import annotations
 
+import base64
 from typing import TYPE_CHECKING, Any, Protocol
 
 from engine.field import NEAR, GroundMineral
@@ -103,7 +104,7 @@ class RemoteField:
         self._asker.ask_world("found", id=site.id, by=by)
 
     def mark_scanned(self, cell: int) -> None:
-        self._asker.ask_world("scan", cell=cell)
+        self._asker.ask_world("scan", cell=cell, by=self._asker.name)
 
     @property
     def ground(self) -> list[GroundMineral]:
@@ -240,10 +241,11 @@ class PeerBody:
 
 
 def serve_body(
-    asker: Asker, robot: Any, robots: dict[str, Any], req: dict[str, Any]
+    asker: Asker, robot: Any, robots: dict[str, Any], req: dict[str, Any], frame: bytes = b""
 ) -> dict[str, Any]:
     """Answer a body query to this process's robot: a `look`, or one of `CALLS` made by the
-    robot beside it (`robots` gains a stand-in for a caller not met before)."""
+    robot beside it (`robots` gains a stand-in for a caller not met before). `frame` is the
+    signed query as it came: a `take` hands it to the world service as the giver's consent."""
     if req.get("op") == "look":
         return {"ok": True, "value": look(robot)}
     caller = req["caller"]
@@ -258,7 +260,7 @@ def serve_body(
     stand_in.override = caller
     try:
         if method == "take":
-            value = take(asker, robot, stand_in, str(args[0]), str(args[1]))
+            value = take(asker, robot, stand_in, str(args[0]), str(args[1]), frame)
         else:
             value = serve_call(robot, stand_in, method, args)
     finally:
@@ -266,16 +268,21 @@ def serve_body(
     return {"ok": True, "value": value if isinstance(value, bool | None) else None}
 
 
-def take(asker: Asker, hauler: Any, giver: PeerBody, task_id: str, once: str) -> bool:
+def take(
+    asker: Asker, hauler: Any, giver: PeerBody, task_id: str, once: str, consent: bytes
+) -> bool:
     """An excavator beside this hauler would empty its bucket into its bin
     (`PeerBody.can_receive`): if the hauler can receive, and the world service records the
-    hand-over `once` (it refuses one the excavator has given up on), the mineral is the
-    hauler's. The agent's lock stays held meanwhile: nothing changes between the check and
-    the receipt."""
+    hand-over `once` (it refuses one the excavator has given up on, or did not sign: the
+    excavator's own `take` query, `consent`, goes with it), the mineral is the hauler's. The
+    agent's lock stays held meanwhile: nothing changes between the check and the receipt."""
     if not hauler.can_receive(giver):
         return False
     x, y = giver.pos
-    if not asker.ask_world("handover", once=once, by=asker.name, src=giver.name, x=x, y=y):
+    proof = base64.b64encode(consent).decode()
+    if not asker.ask_world(
+        "handover", once=once, by=asker.name, src=giver.name, x=x, y=y, consent=proof
+    ):
         return False
     hauler.receive(giver, task_id)
     return True

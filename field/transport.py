@@ -23,7 +23,9 @@ import numpy as np
 import zenoh
 
 from engine.liveness import Liveness
-from engine.messages import Heartbeat, Message
+from engine.messages import Handoff, Heartbeat, Hello, Message, PolicyChange
+from field.link import Link
+from field.trust import Rejected
 from field.wire import decode, encode, messages_selector
 
 log = logging.getLogger("regolith.field.transport")
@@ -138,19 +140,52 @@ class Inbox:
             return None if not self._heap else max(0.0, self._heap[0][0] - time.monotonic())
 
 
+def may_send(msg: Message, role: str) -> bool:
+    """What a robot of `role` may say on the bus beyond speaking in its own name: its
+    heartbeats and hellos carry its own type, only scouts hand over search cells, and a
+    policy change is never a robot's (mission control commands it)."""
+    if isinstance(msg, Heartbeat | Hello):
+        return msg.rtype == role
+    if isinstance(msg, Handoff):
+        return role == "scout"
+    return not isinstance(msg, PolicyChange)
+
+
+def open_message(link: Link, key: str, payload: bytes) -> Message | None:
+    """A protocol message heard on `key`, checked: signed by a member of the mission, in
+    its own name, and one its role may send. None (counted) otherwise."""
+    opened = link.opener.admit(key, payload)
+    if opened is None:
+        return None
+    msg = decode(opened.body, link.mission)
+    if msg is None:
+        link.opener.rejections.count(Rejected("malformed", opened.sender, "not a message"))
+    elif msg.sender != opened.sender or not key.endswith(f"/{opened.sender}"):
+        link.opener.rejections.count(Rejected("impersonation", opened.sender, f"as {msg.sender}"))
+    elif not may_send(msg, opened.cert.role):
+        link.opener.rejections.count(
+            Rejected(
+                "not allowed", opened.sender, f"a {type(msg).__name__} from a {opened.cert.role}"
+            )
+        )
+    else:
+        return msg
+    return None
+
+
 class ZenohBus:
     """The engine's `Bus` over Zenoh, for one robot (the agent's)."""
 
     def __init__(
         self,
-        session: zenoh.Session,
-        mission: str,
+        link: Link,
         liveness: Liveness,
         on_unknown_peer: Callable[[Message], None] | None = None,
         faults: Faults | None = None,
     ) -> None:
-        self._session = session
-        self._mission = mission
+        self._link = link
+        self._session = link.session
+        self._mission = link.mission
         self._liveness = liveness
         self._faults = faults
         self._on_unknown_peer = on_unknown_peer
@@ -162,7 +197,9 @@ class ZenohBus:
         self.published = 0
         self.received = 0
         self.lost = 0  # by the injector; the network's own losses are not seen
-        self._sub = session.declare_subscriber(messages_selector(mission), self._on_sample)
+        self._sub = self._session.declare_subscriber(
+            messages_selector(self._mission), self._on_sample
+        )
 
     # --- the engine's Bus interface ------------------------------------------------------
     def subscribe(
@@ -171,7 +208,8 @@ class ZenohBus:
         self.name, self._handler = name, handler
 
     def publish(self, msg: Message) -> None:
-        key, payload = encode(self._mission, msg, next(self._seq))
+        key, body = encode(self._mission, msg, next(self._seq))
+        payload = self._link.sealer.seal(key, body)
         self.published += 1
         if self._faults is not None:
             delay = self._faults.draw()
@@ -196,11 +234,11 @@ class ZenohBus:
 
     # --- receiving ------------------------------------------------------------------------
     def _on_sample(self, sample: Any) -> None:
-        """Zenoh's thread: validate, then queue for the clock loop (never raises)."""
+        """Zenoh's thread: check, then queue for the clock loop (never raises)."""
         try:
-            msg = decode(sample.payload.to_bytes(), self._mission)
-        except Exception:  # pragma: no cover - decode logs and returns None by design
-            log.exception("dropped a message that could not be decoded")
+            msg = open_message(self._link, str(sample.key_expr), sample.payload.to_bytes())
+        except Exception:  # pragma: no cover - the checks count and return None by design
+            log.exception("dropped a message that could not be checked")
             return
         if msg is None or msg.sender == self.name:
             return

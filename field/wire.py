@@ -63,10 +63,10 @@ class InjectTask(BaseModel):
     task_id: Annotated[str, Field(min_length=1, max_length=128)]
 
 
-def decode_inject(payload: bytes) -> InjectTask | None:
-    """An operator task, or None (logged) if the payload is not a valid one."""
+def decode_inject(data: dict[str, Any]) -> InjectTask | None:
+    """An operator task, or None (logged) if the request is not a valid one."""
     try:
-        return InjectTask.model_validate_json(payload)
+        return InjectTask.model_validate(data)
     except (ValueError, ValidationError) as exc:
         log.warning("dropped a malformed operator task: %s", _short(exc))
         return None
@@ -130,7 +130,7 @@ def encode(mission: str, msg: Message, seq: int) -> tuple[str, bytes]:
 def decode(payload: bytes, mission: str | None = None) -> Message | None:
     """The engine message a payload carries, or None (logged) if it is not a valid one."""
     try:
-        raw = json.loads(payload)
+        raw = json.loads(payload, parse_constant=_no_constant)
         env = Envelope.model_validate(raw)
     except (ValueError, TypeError, ValidationError, RecursionError) as exc:
         log.warning("dropped a malformed message: %s", _short(exc))
@@ -164,7 +164,7 @@ def encode_json(data: dict[str, Any]) -> bytes:
 def decode_json(payload: bytes) -> dict[str, Any] | None:
     """A query, reply, event or command, or None (logged) if malformed or of another version."""
     try:
-        data = json.loads(payload)
+        data = json.loads(payload, parse_constant=_no_constant)
     except (ValueError, TypeError, RecursionError) as exc:
         log.warning("dropped a malformed payload: %s", _short(exc))
         return None
@@ -172,6 +172,12 @@ def decode_json(payload: bytes) -> dict[str, Any] | None:
         log.warning("dropped a payload that is not a version-%d object", VERSION)
         return None
     return data
+
+
+def _no_constant(name: str) -> Any:
+    """JSON has no NaN or infinity; Python's parser would take them, and a stored record
+    holding one is not JSON any more."""
+    raise ValueError(f"{name} is not a JSON number")
 
 
 def _short(exc: BaseException) -> str:

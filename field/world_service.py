@@ -22,13 +22,16 @@ import numpy as np
 import simpy
 
 from engine.field import Field, SiteState
-from engine.geometry import dist, first_entry
+from engine.geometry import first_entry
 from engine.observer import Observer
 from engine.policies import resolve_policy
 from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.world import World, generate_world
-from field.wire import decode_json, encode_json, event_key, presence_key, world_key
+from field.link import Link
+from field.trust import Certificate
+from field.wire import event_key, presence_key, world_key
+from field.world_rules import Refused, authorize
 
 log = logging.getLogger("regolith.field.world")
 
@@ -87,14 +90,15 @@ def site_dict(s: SiteState) -> dict[str, Any]:
 class WorldService:
     def __init__(
         self,
-        session: Any,
-        mission: str,
+        link: Link,
         scenario: Scenario,
         seed: int,
         policy: str,
         speed: float,
         on_event: Callable[[dict[str, Any]], None] | None = None,
     ) -> None:
+        mission, session = link.mission, link.session
+        self.link = link
         self.mission, self.scenario, self.seed, self.speed = mission, scenario, seed, speed
         self.policy = resolve_policy(policy)
         world_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(4)[0])
@@ -122,7 +126,9 @@ class WorldService:
         self.done: dict[str, Any] = {}
         self.seen: dict[str, tuple[float, float, float]] = {}  # robot -> (t, x, y) last heard
         self.heard: dict[str, float] = {}  # robot -> mission time it was last heard
+        self.revealed: dict[str, set[str]] = {}  # robot -> the sites the world showed it
         self.queries = 0
+        self.refused = 0  # requests from members that their asker may not make
         self._lock = threading.Lock()
         self._flush_lock = threading.Lock()
         self._outbox: deque[bytes] = deque()
@@ -139,7 +145,7 @@ class WorldService:
         data = {"kind": "event", "t": ev.t, "event": ev.kind, "data": ev.data, "by": "world"}
         if self._on_event is not None:
             self._on_event(data)
-        self._outbox.append(encode_json(data))
+        self._outbox.append(self.link.seal(event_key(self.mission, "world"), data))
 
     def _flush(self) -> None:
         with self._flush_lock:  # one publisher at a time, in the order they happened
@@ -147,44 +153,55 @@ class WorldService:
                 self._events_pub.put(self._outbox.popleft())
 
     def _on_query(self, query: Any) -> None:
-        payload = query.payload.to_bytes() if query.payload is not None else b""
-        req = decode_json(payload)
+        """A signed request from a member of the mission (anything else is dropped and
+        counted, unanswered), checked against what its asker may do (`world_rules`)."""
+        got = self.link.take_query(query)
+        if got is None:
+            return
+        opened, req = got
+        args = req.get("args")
         try:
-            if req is None or not isinstance(req.get("op"), str):
+            if not isinstance(req.get("op"), str) or not isinstance(args or {}, dict):
                 reply: dict[str, Any] = {"ok": False, "error": "malformed request"}
             else:
                 with self._lock:
                     self.queries += 1
-                    reply = {"ok": True, "value": self.handle(req["op"], req.get("args") or {})}
-        except (KeyError, TypeError, ValueError) as exc:
-            log.warning("world query refused: %s", exc)
+                    reply = {"ok": True, "value": self.handle(req["op"], args or {}, opened.cert)}
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as exc:
+            if isinstance(exc, Refused):
+                self.refused += 1
+            log.warning("world query from %s refused: %s", opened.sender, str(exc)[:200])
             reply = {"ok": False, "error": str(exc)[:200]}
-        query.reply(query.key_expr, encode_json(reply))
+        self.link.reply(query, req, reply)
         self._flush()
 
     # --- the operations -------------------------------------------------------------------
-    def handle(self, op: str, a: dict[str, Any]) -> Any:
-        """One operation. One that moves a mineral carries a `once` id, and is carried out
-        once whatever the number of times it is asked: an agent asks again when a reply is
-        late, and a delivery asked twice would count a mineral twice."""
+    def handle(self, op: str, a: dict[str, Any], caller: Certificate) -> Any:
+        """One operation, asked by `caller` (`Refused` if it may not). One that moves a
+        mineral carries a `once` id, and is carried out once whatever the number of times it
+        is asked: an agent asks again when a reply is late, and a delivery asked twice would
+        count a mineral twice. (A repeat is answered as the first time, before the checks: the
+        first one changed what they read.)"""
         once = a.get("once")
+        if once is not None and op != "settle" and str(once) in self.done:
+            return self.done[str(once)]
+        authorize(self, op, a, caller)
         if once is None:
-            return self._handle(op, a)
+            return self._handle(op, a, caller.name)
         if op == "settle":  # the asker heard no answer: did it happen? (if not, it never will)
             return self.done.setdefault(str(once), False)
-        if str(once) not in self.done:
-            self.done[str(once)] = self._handle(op, a)
+        self.done[str(once)] = self._handle(op, a, caller.name)
         return self.done[str(once)]
 
-    def _handle(self, op: str, a: dict[str, Any]) -> Any:
+    def _handle(self, op: str, a: dict[str, Any], caller: str) -> Any:
         f = self.field
         if op == "spawn":
             return self._spawn(str(a["name"]))
         if op == "site_at":
             s = f.site_at((float(a["x"]), float(a["y"])))
-            return None if s is None else site_dict(s)
+            return None if s is None else self._reveal(caller, s)
         if op == "site":
-            return site_dict(self._site(a["id"]))
+            return site_dict(self.site(a["id"]))
         if op == "sites_near":
             p, q, r = (
                 (float(a["ax"]), float(a["ay"])),
@@ -193,23 +210,23 @@ class WorldService:
             )
             r = min(r, self.scenario.scan_radius)  # a scout sees no farther than its scanner
             return [
-                site_dict(s)
+                self._reveal(caller, s)
                 for s in f.sites_near(p, q, r)
                 if first_entry(p, q, (s.x, s.y), r) is not None
             ]
         if op == "site_set":
-            s = self._site(a["id"])
+            s = self.site(a["id"])
             before = s.remaining
             for key in ("remaining", "worker", "last_worker"):
                 if key in a:
-                    setattr(s, key, a[key])
+                    setattr(s, key, int(a[key]) if key == "remaining" else a[key])
             if "remaining" in a:
                 self.observer.progress_at = self.clock.now()
                 if "by" in a and s.remaining < before:  # dug: out of the pile, into the bucket
                     self._hold(str(a["by"]), before - s.remaining, (s.x, s.y))
             return site_dict(s)
         if op == "found":
-            f.note_site_found(self._site(a["id"]), str(a["by"]))
+            f.note_site_found(self.site(a["id"]), str(a["by"]))
             return None
         if op == "scan":
             f.mark_scanned(int(a["cell"]))
@@ -297,7 +314,12 @@ class WorldService:
                 "delivered": f.delivered,
             }
 
-    def _site(self, site_id: Any) -> SiteState:
+    def _reveal(self, name: str, s: SiteState) -> dict[str, Any]:
+        """A site shown to `name`: the only ones it may report found."""
+        self.revealed.setdefault(name, set()).add(s.id)
+        return site_dict(s)
+
+    def site(self, site_id: Any) -> SiteState:
         for s in self.field.sites:
             if s.id == site_id:
                 return s
@@ -349,8 +371,4 @@ class WorldService:
     def close(self) -> None:
         for decl in (self._presence, self._queryable, self._events_pub):
             with contextlib.suppress(Exception):  # the session may be gone already
-                decl.undeclare()
-
-
-def site_distance(s: dict[str, Any], p: tuple[float, float]) -> float:
-    return dist((s["x"], s["y"]), p)
+                decl.undeclare()  # type: ignore[no-untyped-call]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import re
 import signal
 import sys
@@ -36,6 +37,10 @@ def agent(
     name: Annotated[str, typer.Option(help="This robot's name: scout-N, excavator-N, hauler-N")],
     mission: Annotated[str, typer.Option(help="The mission's id (its key space)")],
     connect: Annotated[str, typer.Option(help="Zenoh endpoint, e.g. tcp/10.0.0.5:7447")],
+    credentials: Annotated[
+        str,
+        typer.Option(help="This robot's credential file from mission control ('-': stdin)"),
+    ],
     speed: Annotated[
         float | None, typer.Option(help="Check: the mission's speed factor K", min=0.001)
     ] = None,
@@ -47,11 +52,13 @@ def agent(
     """Run one robot as this process, talking only over Zenoh."""
     from field.agent import Agent, AgentError
     from field.transport import Stalls
+    from field.trust import Credential
 
     logging.basicConfig(level=logging.WARNING, format=f"{name}: %(message)s")
     try:
+        cred = Credential.from_json(_read_credential(credentials))
         stalls = None if stall is None else Stalls.parse(stall, zlib.crc32(name.encode()))
-        a = Agent(name, mission, connect, speed=speed, listen=listen, stalls=stalls)
+        a = Agent(name, mission, connect, cred, speed=speed, listen=listen, stalls=stalls)
     except (AgentError, ValueError) as exc:
         fail("agent", str(exc).splitlines()[0])
     signal.signal(signal.SIGTERM, lambda *_: a.stopped.set())
@@ -61,6 +68,17 @@ def agent(
         pass
     finally:
         a.close()
+
+
+def _read_credential(where: str) -> str:
+    """One line from standard input ('-'), else the file (at most 16 KB either way)."""
+    if where == "-":
+        return sys.stdin.readline(16384)
+    try:
+        with open(where, encoding="utf-8") as f:
+            return f.read(16384)
+    except OSError as exc:
+        raise ValueError(f"--credentials: {where}: {exc.strerror}") from None
 
 
 def _scenario(path: Path | None) -> Any:
@@ -121,9 +139,24 @@ def fleet_up(
     speed: Annotated[float, typer.Option(min=1)] = 20.0,
     port: Annotated[int, typer.Option(help="The endpoint's TCP port", min=1, max=65535)] = 7447,
     host: Annotated[str, typer.Option(help="The address to listen on")] = "127.0.0.1",
+    issue: Annotated[
+        list[str], typer.Option(help="Write a credential for a robot elsewhere: NAME")
+    ] = [],  # noqa: B006
+    credentials_dir: Annotated[
+        Path, typer.Option(help="Where --issue writes NAME.cred (mode 0600)")
+    ] = Path("credentials"),
 ) -> None:
     """Start the world service and one agent per robot here, until the mission completes."""
     from field.fleet import Fleet
+    from field.wire import check_segment
+
+    for name in issue:
+        try:
+            rtype = check_segment(name, "--issue").rsplit("-", 1)[0]
+        except ValueError as exc:
+            fail("fleet up", str(exc))
+        if rtype not in ROBOT_TYPES:
+            fail("fleet up", f"--issue: {name!r} must be scout-N, excavator-N or hauler-N")
 
     _exit_on_sigterm()
     scen = _scenario(scenario)
@@ -133,6 +166,9 @@ def fleet_up(
         fail("fleet up", str(exc))
     with fleet:
         typer.echo(f"mission {fleet.mission} on {fleet.endpoint} at {speed:g}×", err=True)
+        for name in issue:
+            path = _write_credential(credentials_dir, name, fleet.credential(name).to_json())
+            typer.echo(f"credential for {name}: {path}", err=True)
         fleet.up()
         try:
             while not fleet.world.field.finished.triggered:
@@ -140,6 +176,16 @@ def fleet_up(
         except KeyboardInterrupt:
             sys.exit(130)
         typer.echo(json.dumps(fleet.world.status()))
+
+
+def _write_credential(folder: Path, name: str, text: str) -> Path:
+    """NAME.cred, readable by this user only (it lets its holder speak as that robot)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.cred"
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as f:
+        f.write(text + "\n")
+    return path
 
 
 def _exit_on_sigterm() -> None:

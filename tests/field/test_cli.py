@@ -32,10 +32,37 @@ def test_fleet_run_refuses_bad_input(args: list[str], message: str) -> None:
 
 
 def test_agent_refuses_a_bad_name_and_a_missing_mission() -> None:
-    res = CliRunner().invoke(
-        cli, ["agent", "--name", "hauler/1", "--mission", "m", "--connect", "tcp/127.0.0.1:1"]
-    )
+    from field.trust import Authority
+
+    cred = Authority("m").issue("hauler-1", "hauler").to_json()
+    base = ["agent", "--mission", "m", "--connect", "tcp/127.0.0.1:1", "--credentials", "-"]
+    res = CliRunner().invoke(cli, [*base, "--name", "hauler/1"], input=cred)
     assert res.exit_code == 2 and "name: 'hauler/1' must be" in res.output
+
+
+@pytest.mark.parametrize(
+    ("given", "message"),
+    [
+        ("not json", "credentials: "),
+        ("hauler-2", "credentials: issued to 'hauler-1' of mission 'm', not 'hauler-2'"),
+        ("/nonexistent/hauler.cred", "--credentials: /nonexistent/hauler.cred: No such file"),
+    ],
+)
+def test_an_agent_without_its_own_credential_is_refused(given: str, message: str) -> None:
+    """An agent speaks only with the credential mission control issued to that name: none,
+    another robot's, or an unreadable file is a one-line error, exit 2, nothing started."""
+    from field.trust import Authority
+
+    cred = Authority("m").issue("hauler-1", "hauler").to_json()
+    base = ["agent", "--mission", "m", "--connect", "tcp/127.0.0.1:1"]
+    if given.startswith("/"):
+        res = CliRunner().invoke(cli, [*base, "--name", "hauler-1", "--credentials", given])
+    else:
+        name = given if given.startswith("hauler") else "hauler-1"
+        text = cred if given.startswith("hauler") else given
+        res = CliRunner().invoke(cli, [*base, "--name", name, "--credentials", "-"], input=text)
+    assert res.exit_code == 2, res.output
+    assert message in res.output and len(res.output.strip().splitlines()) == 1
 
 
 @pytest.mark.parametrize(

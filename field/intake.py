@@ -1,0 +1,163 @@
+"""What mission control takes in from a field mission's key space, checked.
+
+Every protocol message is opened like a robot opens it (`field.transport.open_message`), and
+every event and auction record an agent reports must be signed by that agent, be about
+itself (an auction record only of an auction it holds, an event only in its own name) and
+have the shape the service stores (`ReportedAuction`, `ReportedEvent`). What fails is dropped
+and counted: nothing a robot sends can put a record in front of the service that the
+service cannot store, or that another robot should have sent.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from engine.messages import Heartbeat
+from field.link import Link
+from field.transport import open_message
+from field.trust import CONTROL, MAX_REPORT, Rejected
+
+Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.\-]{1,64}$")]
+Time = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-1e6, le=1e6)]
+Short = Annotated[str, Field(min_length=1, max_length=128)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class ReportedBid(_Strict):
+    t: Time
+    bidder: Name
+    utility: Annotated[float, Field(allow_inf_nan=False)] | None
+    round: Annotated[int, Field(ge=0, le=1_000_000)]
+
+
+class ReportedAward(_Strict):
+    t: Time
+    winner: Name
+    outcome: Literal["pending", "accepted", "declined", "timeout"]
+
+
+class ReportedAuction(_Strict):
+    """`engine.auction_rules.AuctionRecord.to_dict()`, as an agent reports it."""
+
+    id: Short
+    kind: Short
+    auctioneer: Name
+    task_type: Literal["excavate", "transport"]
+    task_id: Short
+    location: tuple[Coordinate, Coordinate]
+    status: Literal["open", "closed", "cancelled", "superseded"]
+    opened_at: Time
+    closed_at: Time | None
+    allocated_to: Name | None
+    reannouncements: Annotated[int, Field(ge=0, le=1_000_000)]
+    reauction_of: Short | None
+    policy: Short
+    bids: Annotated[list[ReportedBid], Field(max_length=10_000)]
+    awards: Annotated[list[ReportedAward], Field(max_length=10_000)]
+
+
+class ReportedEvent(_Strict):
+    kind: Literal["event"]
+    t: Time
+    event: Annotated[str, Field(pattern=r"^[a-z_]{1,40}$")]
+    data: Annotated[dict[str, Any], Field(max_length=64)]
+    by: Name
+
+
+@dataclass
+class Recorder:
+    """Everything mission control hears: protocol messages (checked, counted), events and
+    auction records (the latest version of each auction), and what the agents dropped."""
+
+    link: Link
+    messages: int = 0
+    by_type: dict[str, int] = field(default_factory=dict)
+    events: list[dict[str, Any]] = field(default_factory=list)
+    heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
+    auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
+    agents_dropped: dict[str, int] = field(default_factory=dict)  # by agent, its own count
+    lock: threading.Lock = field(default_factory=threading.Lock)
+    on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
+
+    @property
+    def malformed(self) -> int:
+        """Frames mission control dropped (unsigned, forged, malformed, not allowed...)."""
+        return self.link.opener.rejections.total
+
+    def rejections(self) -> dict[str, Any]:
+        """What this mission's processes dropped: mission control's own count (by reason and
+        sender), and each agent's as it last reported it."""
+        with self.lock:
+            agents = dict(sorted(self.agents_dropped.items()))
+        mine = self.link.rejections
+        return {**mine, "agents": agents, "total": mine["total"] + sum(agents.values())}
+
+    def on_message(self, sample: Any) -> None:
+        msg = open_message(self.link, str(sample.key_expr), sample.payload.to_bytes())
+        if msg is None:
+            return
+        with self.lock:
+            self.messages += 1
+            kind = type(msg).__name__.lower()
+            self.by_type[kind] = self.by_type.get(kind, 0) + 1
+            if isinstance(msg, Heartbeat):
+                self.heartbeats[msg.sender] = msg
+        if self.on_heard is not None:
+            self.on_heard(msg.sender, (msg.x, msg.y) if isinstance(msg, Heartbeat) else None)
+
+    def on_report(self, sample: Any) -> None:
+        got = self.link.open_json(str(sample.key_expr), sample.payload.to_bytes(), MAX_REPORT)
+        if got is None:
+            return
+        opened, data = got
+        if opened.sender == CONTROL:
+            return  # the world service's own events: taken in once, by `on_world_event`
+        try:
+            self.take(opened.sender, data)
+        except Rejected as exc:
+            self.link.opener.rejections.count(exc)
+        except (ValidationError, ValueError, TypeError) as exc:
+            detail = str(exc).splitlines()[0]
+            if isinstance(exc, ValidationError) and exc.errors():
+                first = exc.errors()[0]
+                detail = f"{'.'.join(map(str, first['loc']))}: {first['msg']}"
+            self.link.opener.rejections.count(Rejected("invalid report", opened.sender, detail))
+
+    def take(self, sender: str, data: dict[str, Any]) -> None:
+        """One checked report from agent `sender` (Rejected or ValidationError otherwise)."""
+        kind = data.get("kind")
+        if kind == "auction":
+            rec = ReportedAuction.model_validate(data.get("record")).model_dump(mode="json")
+            if rec["auctioneer"] != sender or not rec["id"].startswith(f"{sender}/"):
+                raise Rejected("impersonation", sender, f"auction {rec['id']!r}")
+            with self.lock:
+                self.auctions[rec["id"]] = rec
+        elif kind == "event":
+            fields = {k: v for k, v in data.items() if k != "v"}
+            ev = ReportedEvent.model_validate(fields).model_dump(mode="json")
+            if ev["by"] != sender or ev["data"].get("by", sender) != sender:
+                raise Rejected("impersonation", sender, f"event {ev['event']!r}")
+            with self.lock:
+                self.events.append(ev)
+        elif kind == "rejections":
+            total = data.get("total")
+            if not isinstance(total, int) or not 0 <= total < 2**53:
+                raise Rejected("invalid report", sender, "rejections")
+            with self.lock:
+                self.agents_dropped[sender] = total
+        else:
+            raise Rejected("invalid report", sender, f"kind {str(kind)[:40]!r}")
+
+    def on_world_event(self, data: dict[str, Any]) -> None:
+        """The world service's own events (mission control's process: trusted)."""
+        with self.lock:
+            self.events.append(data)

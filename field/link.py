@@ -1,0 +1,105 @@
+"""One process's signed link to a mission's key space: every put, query and reply it makes
+is a frame sealed with its credential, and everything it takes in is opened (checked) first
+(`field.trust`). Agents and mission control both talk through one `Link` each.
+
+A query is answered by whoever declares a queryable on its key, strangers included, so an
+asker takes only the reply signed by the one it asked (`expect`) that quotes its request
+id, and asks every queryable (`QueryTarget.ALL`, no consolidation): a stranger's answer can
+neither stand in for the true one nor hide it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from typing import Any
+
+import zenoh
+
+from field.trust import MAX_FRAME, Credential, Opened, Opener, Rejected, Sealer
+from field.wire import decode_json, encode_json
+
+log = logging.getLogger("regolith.field.link")
+
+
+def reply_channel(key: str) -> str:
+    """What a reply to a query on `key` is signed over (never a key anyone publishes on)."""
+    return f"reply:{key}"
+
+
+class Link:
+    def __init__(self, session: zenoh.Session, cred: Credential, where: str) -> None:
+        self.session = session
+        self.cred = cred
+        self.name = cred.name
+        self.mission = cred.mission
+        self.sealer = Sealer(cred)
+        self.opener = Opener(cred.mission, cred.anchor, where)
+        self._rids = itertools.count(1)
+
+    @property
+    def rejections(self) -> dict[str, Any]:
+        return self.opener.rejections.snapshot()
+
+    # --- sending ---------------------------------------------------------------------------
+    def seal(self, key: str, data: dict[str, Any]) -> bytes:
+        return self.sealer.seal(key, encode_json(data))
+
+    def put(self, key: str, data: dict[str, Any], publisher: Any = None) -> None:
+        payload = self.seal(key, data)
+        if publisher is not None:
+            publisher.put(payload)
+        else:
+            self.session.put(key, payload)
+
+    def ask(
+        self, key: str, req: dict[str, Any], expect: str, timeout: float
+    ) -> dict[str, Any] | None:
+        """The reply signed by `expect` to this request, or None if none came in time."""
+        rid = f"{self.name}:{self.cred.gen}:{next(self._rids)}"
+        payload = self.seal(key, {**req, "rid": rid})
+        replies = self.session.get(
+            key,
+            payload=payload,
+            timeout=timeout,
+            target=zenoh.QueryTarget.ALL,
+            consolidation=zenoh.ConsolidationMode.NONE,
+        )
+        for reply in replies:
+            if reply.ok is None:
+                continue
+            got = self.open_json(reply_channel(key), reply.ok.payload.to_bytes())
+            if got is None:
+                continue
+            opened, data = got
+            if opened.sender != expect:
+                self.opener.rejections.count(
+                    Rejected("wrong responder", opened.sender, f"answered {key} for {expect}")
+                )
+            elif data.get("re") == rid:
+                return data
+        return None
+
+    # --- receiving -------------------------------------------------------------------------
+    def open_json(
+        self, channel: str, payload: bytes, limit: int = MAX_FRAME
+    ) -> tuple[Opened, dict[str, Any]] | None:
+        """A checked frame whose body is a versioned JSON object, or None (counted)."""
+        opened = self.opener.admit(channel, payload, limit)
+        if opened is None:
+            return None
+        data = decode_json(opened.body)
+        if data is None:
+            self.opener.rejections.count(Rejected("malformed", opened.sender, "not a v1 object"))
+            return None
+        return opened, data
+
+    def take_query(self, query: Any) -> tuple[Opened, dict[str, Any]] | None:
+        """An incoming query's checked request; None (counted, not answered) otherwise."""
+        payload = query.payload.to_bytes() if query.payload is not None else b""
+        return self.open_json(str(query.key_expr), payload)
+
+    def reply(self, query: Any, req: dict[str, Any], data: dict[str, Any]) -> None:
+        key = str(query.key_expr)
+        body = encode_json({**data, "re": req.get("rid")})
+        query.reply(query.key_expr, self.sealer.seal(reply_channel(key), body))
