@@ -13,6 +13,7 @@ import asyncio
 import contextlib
 import logging
 import math
+from collections import Counter
 from collections.abc import Coroutine
 from dataclasses import dataclass, field
 from time import perf_counter
@@ -23,7 +24,8 @@ from app.live.gate import Gate
 from app.live.gc_pause import GcPause
 from app.live.hub import Hub
 from app.live.stepper import Stepper
-from app.services.recorder import Recorder
+from app.services.field_rules import dropped_of
+from app.services.recorder import Batch, Recorder
 from app.services.store import Store
 from app.settings import Settings
 from engine import Event, Mission
@@ -112,6 +114,26 @@ def auction_dict(record: dict[str, Any]) -> dict[str, Any]:
     return {**record, "declines": declines}
 
 
+def describe(exc: BaseException) -> str:
+    """An exception as one stored line (its type and the start of its message)."""
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return f"{type(exc).__name__}: {text}"[:300]
+
+
+def failed_record(changes: dict[str, Any], reason: str) -> dict[str, Any]:
+    """A mission's final record, ended as failed with `reason` (its metrics and last state
+    left out: they are what could not be trusted)."""
+    out = {k: v for k, v in changes.items() if k not in ("metrics", "final_state")}
+    return {**out, "status": "failed", "error": changes.get("error") or reason}
+
+
+def _safe_now(lm: LiveMission) -> float:
+    try:
+        return float(lm.mission.now)
+    except Exception:
+        return 0.0
+
+
 def stream_state(state: dict[str, Any] | None) -> dict[str, Any] | None:
     """A snapshot (live, or stored as a mission's final state) with its auctions so shaped."""
     if state is None:
@@ -137,6 +159,8 @@ class MissionRunner:
         self.gc_pause = GcPause()
         self._tasks: list[asyncio.Task[None]] = []
         self._pending: set[asyncio.Task[Any]] = set()
+        # what field missions that ended had dropped from their bus, by reason (`/metrics`)
+        self.field_dropped: Counter[str] = Counter()
 
     # -- lifecycle ---------------------------------------------------------------------
 
@@ -260,8 +284,19 @@ class MissionRunner:
 
     def _write(self, lm: LiveMission, changes: dict[str, Any] | None = None) -> asyncio.Task[None]:
         """Write what `lm` produced since the last write (under the gate), after that write:
-        order matters, a batch may update auctions the previous one inserts."""
-        batch = lm.recorder.collect()
+        order matters, a batch may update auctions the previous one inserts.
+
+        A bulkhead: a batch the mission's own data spoils (it cannot be collected, or the
+        database refuses it) ends that mission alone as failed, and its final record is
+        written even so, with the reason (`_store_final`)."""
+        try:
+            batch = lm.recorder.collect()
+        except Exception as exc:
+            if changes is None:
+                raise  # the caller ends the mission (`_quarantine`), with this final write
+            log.exception("mission %s: records not collected", lm.id, extra={"mission_id": lm.id})
+            changes = failed_record(changes, f"records not collected: {describe(exc)}")
+            batch = Batch(lm.id, _safe_now(lm))
         previous = lm.writing
         lm.last_flush = perf_counter()
 
@@ -269,7 +304,17 @@ class MissionRunner:
             if previous is not None:
                 with contextlib.suppress(Exception):
                     await previous
-            await self.store.write_batch(batch, changes)
+            try:
+                await self.store.write_batch(batch, changes)
+            except Exception as exc:
+                reason = f"records refused by the database: {describe(exc)}"
+                log.exception("mission %s: %s", lm.id, reason, extra={"mission_id": lm.id})
+                if changes is None:
+                    lm.crashed = lm.crashed or reason  # `_maintain` ends it, alone
+                    return
+                await self.store.write_batch(
+                    Batch(lm.id, batch.sim_time), failed_record(changes, reason)
+                )
 
         lm.writing = self._spawn(write())
         return lm.writing
@@ -299,16 +344,20 @@ class MissionRunner:
             f" ({error})" if error else "",
             extra={"mission_id": lm.id},
         )
-        self.publish_pending(lm)
         try:
+            self.publish_pending(lm)
             lm.hub.publish_frame({**lm.mission.frame(), "status": status}, last=True)
         except Exception:  # a failed engine may not produce a frame; the status still goes
             log.exception("final frame of mission %s failed", lm.id, extra={"mission_id": lm.id})
         lm.hub.publish(lm.status_message())
         changes: dict[str, Any] = {"status": status, "ended_at": utcnow()}
         if error is None:
-            changes["metrics"] = lm.mission.metrics()
-            changes["final_state"] = self._safe_snap(lm, status)
+            try:
+                changes["metrics"] = lm.mission.metrics()
+            except Exception as exc:
+                log.exception("metrics of mission %s failed", lm.id, extra={"mission_id": lm.id})
+                changes = failed_record(changes, f"metrics not computed: {describe(exc)}")
+            changes["final_state"] = self._safe_snap(lm, changes["status"])
         else:
             changes["error"] = error
         written = self._write(lm, changes)
@@ -318,12 +367,34 @@ class MissionRunner:
                 await written
             finally:
                 with self.gate:
-                    lm.mission.close()
+                    self._close_engine(lm)
                 self.live.pop(lm.id, None)
                 self.forget_hub(lm.id)
 
         lm.final_task = self._spawn(close())
         return lm.final_task
+
+    def _close_engine(self, lm: LiveMission) -> None:
+        """Stop a mission's engine (a field mission: its agents); never raises."""
+        try:
+            self.field_dropped.update(dropped_of(lm.mission))
+            lm.mission.close()
+        except Exception:
+            log.exception("closing mission %s failed", lm.id, extra={"mission_id": lm.id})
+
+    def quarantine(self, lm: LiveMission, exc: BaseException) -> None:
+        """One mission's data broke the service's handling of it (under the gate): that
+        mission alone ends as failed, with the reason; every other one goes on."""
+        reason = f"the service could not handle this mission's data: {describe(exc)}"
+        log.error("mission %s: %s", lm.id, reason, exc_info=exc, extra={"mission_id": lm.id})
+        lm.crashed = lm.crashed or reason
+        try:
+            self.finish(lm, "failed", error=lm.crashed)
+        except Exception:  # the last resort: the record as it is, the engine stopped
+            log.exception("ending mission %s failed", lm.id, extra={"mission_id": lm.id})
+            lm.finishing, lm.final_status = True, "failed"
+            self._close_engine(lm)
+            self.live.pop(lm.id, None)
 
     @staticmethod
     def _safe_snap(lm: LiveMission, status: str) -> dict[str, Any] | None:
@@ -345,17 +416,23 @@ class MissionRunner:
             for lm in list(self.live.values()):
                 if lm.finishing:
                     continue
-                self.publish_pending(lm)
-                if lm.crashed is not None:
-                    self.finish(lm, "failed", error=lm.crashed)
-                elif lm.mission.done:
-                    self.finish(lm, str(lm.mission.status))
-                elif lm.write_idle and (
-                    now - lm.last_flush >= self.settings.flush_interval_s
-                    or lm.recorder.pending >= BATCH_EVENTS
-                ):
-                    self._write(lm)
-                    self.stepper.wake()
+                try:
+                    self._maintain_one(lm, now)
+                except Exception as exc:
+                    self.quarantine(lm, exc)
+
+    def _maintain_one(self, lm: LiveMission, now: float) -> None:
+        self.publish_pending(lm)
+        if lm.crashed is not None:
+            self.finish(lm, "failed", error=lm.crashed)
+        elif lm.mission.done:
+            self.finish(lm, str(lm.mission.status))
+        elif lm.write_idle and (
+            now - lm.last_flush >= self.settings.flush_interval_s
+            or lm.recorder.pending >= BATCH_EVENTS
+        ):
+            self._write(lm)
+            self.stepper.wake()
 
     async def _tick_forever(self) -> None:
         while True:
@@ -375,7 +452,10 @@ class MissionRunner:
             await asyncio.sleep(delay)
             with self.gate:
                 for lm in list(self.live.values()):
-                    if lm.finishing or not lm.hub.viewers or lm.mission.now == lm.last_frame_t:
-                        continue
-                    lm.last_frame_t = float(lm.mission.now)
-                    lm.hub.publish_frame(lm.mission.frame())
+                    try:
+                        if lm.finishing or not lm.hub.viewers or lm.mission.now == lm.last_frame_t:
+                            continue
+                        lm.last_frame_t = float(lm.mission.now)
+                        lm.hub.publish_frame(lm.mission.frame())
+                    except Exception as exc:
+                        self.quarantine(lm, exc)

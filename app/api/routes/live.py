@@ -11,7 +11,7 @@ from app.api.deps import get_services
 from app.db.models import Mission as MissionRow
 from app.live.hub import CLOSE_POLICY, serve_viewer
 from app.security import token_matches
-from app.services.errors import LimitExceeded, NotFound
+from app.services.errors import Conflict, LimitExceeded, NotFound
 from app.services.missions import LiveState
 
 router = APIRouter(tags=["live"])
@@ -48,6 +48,9 @@ async def live(ws: WebSocket, mission_id: int) -> None:
         return
     except LimitExceeded as exc:
         await ws.close(code=CLOSE_BUSY, reason=exc.message)
+        return
+    except Conflict as exc:  # the mission's own data failed it as the viewer joined
+        await ws.close(code=CLOSE_POLICY, reason=exc.message[:120])
         return
     try:
         await serve_viewer(ws, hub, viewer, settings.ws_max_message)
