@@ -8,6 +8,7 @@ own (`metrics_registry`), never the process-global one: tests start many apps in
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Iterator
 
 from prometheus_client import CollectorRegistry, generate_latest
@@ -16,6 +17,7 @@ from prometheus_client.registry import Collector
 
 from app.live.hub import STATS
 from app.live.runner import MissionRunner
+from app.services.field_rules import dropped_of
 from app.services.store import Store
 
 CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
@@ -65,6 +67,20 @@ class RegolithCollector(Collector):
             sim_time.add_metric(key, lm.mission.now)
             auctions.add_metric(key, len(lm.mission.auctions))
         yield from (speed, sim_time, auctions)
+
+        dropped = CounterMetricFamily(
+            "regolith_field_dropped",
+            "What field missions' processes dropped or refused from their bus (strangers, "
+            "forgeries, replays, oversized or invalid payloads, world requests a robot may not "
+            "make), by reason.",
+            labels=["reason"],
+        )
+        totals = Counter(runner.field_dropped)
+        for lm in runner.live.values():
+            totals.update(dropped_of(lm.mission))
+        for reason, n in sorted(totals.items()):
+            dropped.add_metric([reason], n)
+        yield dropped
 
         viewers = GaugeMetricFamily(
             "regolith_viewers", "Connected WebSocket viewers.", labels=["mission"]

@@ -36,6 +36,8 @@ class Settings(BaseSettings):
 
     max_running_missions: Annotated[int, Field(ge=1, le=1000)] = 8
     max_robots: Annotated[int, Field(ge=1, le=100_000)] = 500
+    # agent processes of all field missions together (~110 MB each; 4 reference missions)
+    field_processes: Annotated[int, Field(ge=0, le=10_000)] = 56
     max_grid_cells: Annotated[int, Field(ge=100, le=10_000_000)] = 100_000
     max_viewers: Annotated[int, Field(ge=1, le=10_000)] = 256
     viewer_queue: Annotated[int, Field(ge=16, le=1_000_000)] = 2000

@@ -15,6 +15,36 @@ from contextlib import contextmanager
 from app.services.errors import LimitExceeded
 
 
+class ProcessBudget:
+    """Field missions' agent processes, server-wide: each robot of a field mission is an OS
+    process (~110 MB, and a share of the CPU), so robots count here, not only against the
+    per-mission robot limit. `reserve` holds processes being started (a mission's team)
+    until the runner counts them; `check` is for one started at once under the gate."""
+
+    def __init__(self, limit: int, in_use: Callable[[], int]) -> None:
+        self.limit = limit
+        self._in_use = in_use
+        self.pending = 0
+
+    def check(self, n: int) -> None:
+        used = self._in_use() + self.pending
+        if used + n > self.limit:
+            raise LimitExceeded(
+                f"field_processes: {n} more agent process{'es' if n != 1 else ''} would make "
+                f"{used + n}, over the server's budget of {self.limit} "
+                "(REGOLITH_FIELD_PROCESSES); stop a field mission or raise the budget"
+            )
+
+    @contextmanager
+    def reserve(self, n: int) -> Iterator[None]:
+        self.check(n)
+        self.pending += n
+        try:
+            yield
+        finally:
+            self.pending -= n
+
+
 class Admission:
     """At most `limit` missions live or on their way to being live."""
 

@@ -54,6 +54,8 @@ class RobotCommands:
     async def enable(self, mission_id: int, name: str) -> dict[str, Any]:
         lm = await self.missions.live(mission_id)
         with self.gate:
+            if is_field(lm.mission):  # its robot comes back as a new process
+                self.missions.processes.check(1)
             lm.mission.enable_robot(name)
             action = self.missions.engine_action(lm)
             robot = _robot(lm, name)
@@ -66,6 +68,8 @@ class RobotCommands:
         with self.gate:
             if len(lm.mission.robot_list()) >= limit:
                 raise LimitExceeded(f"mission {mission_id} already has {limit} robots (the limit)")
+            if is_field(lm.mission):  # a new process
+                self.missions.processes.check(1)
             if position is not None:
                 _inside(lm, position, ("body", "position"))
             try:

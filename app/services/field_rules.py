@@ -3,7 +3,7 @@ so a refusal is a 4xx naming the field, never a half-started fleet."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from app.services.errors import Invalid
 from engine import Scenario
@@ -16,6 +16,29 @@ def is_field(mission: object) -> bool:
     """A live field mission (`field.control.FieldMission`, whose `mode` is the stored one):
     its robots are processes on the wall clock, its operator tasks go over the wire."""
     return getattr(mission, "mode", "simulated") == "field"
+
+
+def processes_of(mission: Any) -> int:
+    """The agent processes a live mission runs (0 for a simulated one)."""
+    return int(mission.processes()) if is_field(mission) else 0
+
+
+def dropped_of(mission: Any) -> dict[str, int]:
+    """What a live field mission's processes dropped or refused, by reason (docs/field.md,
+    "Trust"); empty for a simulated one."""
+    if not is_field(mission):
+        return {}
+    r: dict[str, Any] = mission.rejections()
+    out = dict(r["by_reason"])
+    out["reported by agents"] = sum(r["agents"].values())
+    out["refused by the world service"] = r["world_refused"]
+    return out
+
+
+def team_processes(scenario: Scenario) -> int:
+    """The processes a new field mission starts: one per robot, and the operator's console."""
+    t = scenario.team
+    return t.scouts + t.excavators + t.haulers + 1
 
 
 def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> None:

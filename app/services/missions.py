@@ -17,9 +17,16 @@ from app.db.models import utcnow
 from app.live.hub import Hub, Viewer, encode
 from app.live.runner import LiveMission, MissionRunner, stream_state
 from app.services import queries
-from app.services.admission import Admission
+from app.services.admission import Admission, ProcessBudget
 from app.services.errors import Conflict, LimitExceeded, NotFound
-from app.services.field_rules import Speed, check_field, is_field, no_resume
+from app.services.field_rules import (
+    Speed,
+    check_field,
+    is_field,
+    no_resume,
+    processes_of,
+    team_processes,
+)
 from app.services.replay import revive
 from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
@@ -80,6 +87,10 @@ class MissionService:
         self.runner = runner
         self.gate = runner.gate
         self.admission = Admission(settings.max_running_missions, runner.running_count)
+        self.processes = ProcessBudget(
+            settings.field_processes,
+            lambda: sum(processes_of(lm.mission) for lm in runner.live.values()),
+        )
         self._revivals: SingleFlight[None] = SingleFlight()
 
     # -- lookups -----------------------------------------------------------------------
@@ -148,7 +159,10 @@ class MissionService:
             f"{self.settings.max_running_missions} missions are already live; "
             "stop one or raise REGOLITH_MAX_RUNNING_MISSIONS"
         )
-        with self.admission.place(refusal):
+        with (
+            self.admission.place(refusal),
+            self.processes.reserve(team_processes(scenario) if field else 0),
+        ):
             return await self._create(scenario, seed, policy, speed, paused, planner, field)
 
     async def _create(
@@ -375,15 +389,19 @@ class MissionService:
                 return self._join(mission_id, ws, {**message, "state": state})
             lm.row = lm.row or row
         with self.gate:
-            self.runner.publish_pending(lm)
-            m = lm.mission
-            full = self.runner.hub(mission_id).sync(m.frame())
-            lm.last_frame_t = float(m.now)
-            snap = m.snapshot()
-            streamed = {r["name"]: r for r in full["robots"]}
-            snap["robots"] = [{**r, **streamed.get(r["name"], {})} for r in snap["robots"]]
-            message = {"mission": render(lm.row, live_state(lm)), "map": m.world_map()}
-            state = {**stream_state(snap), **{k: full[k] for k in ("scanned", "counters")}}
+            try:
+                self.runner.publish_pending(lm)
+                m = lm.mission
+                full = self.runner.hub(mission_id).sync(m.frame())
+                lm.last_frame_t = float(m.now)
+                snap = m.snapshot()
+                streamed = {r["name"]: r for r in full["robots"]}
+                snap["robots"] = [{**r, **streamed.get(r["name"], {})} for r in snap["robots"]]
+                message = {"mission": render(lm.row, live_state(lm)), "map": m.world_map()}
+                state = {**stream_state(snap), **{k: full[k] for k in ("scanned", "counters")}}
+            except Exception as exc:  # its own data: it ends, alone, and the viewer is told
+                self.runner.quarantine(lm, exc)
+                raise Conflict(f"mission {mission_id} failed: {lm.crashed}") from None
             return self._join(mission_id, ws, {**message, "seq": full["seq"], "state": state})
 
     def _join(self, mission_id: int, ws: Any, message: dict[str, Any]) -> tuple[Hub, Viewer]:
