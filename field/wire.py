@@ -8,7 +8,8 @@ Every protocol message travels as one JSON object, an `Envelope`:
 under the key `regolith/<mission>/msg/<type>/<sender>`. `decode` validates the envelope and
 then the body against the engine's own message model (`engine.messages`); anything else (not
 JSON, another version, an unknown type, a missing or extra field, a body whose sender is not
-the envelope's) is logged and dropped: a robot never crashes on what it hears.
+the envelope's) is dropped: a robot never crashes on what it hears. (Said at debug level:
+the callers count each drop and log it once per sender per interval, `field.trust`.)
 """
 
 from __future__ import annotations
@@ -68,7 +69,7 @@ def decode_inject(data: dict[str, Any]) -> InjectTask | None:
     try:
         return InjectTask.model_validate(data)
     except (ValueError, ValidationError) as exc:
-        log.warning("dropped a malformed operator task: %s", _short(exc))
+        log.debug("dropped a malformed operator task: %s", _short(exc))
         return None
 
 
@@ -133,14 +134,14 @@ def decode(payload: bytes, mission: str | None = None) -> Message | None:
         raw = json.loads(payload, parse_constant=_no_constant)
         env = Envelope.model_validate(raw)
     except (ValueError, TypeError, ValidationError, RecursionError) as exc:
-        log.warning("dropped a malformed message: %s", _short(exc))
+        log.debug("dropped a malformed message: %s", _short(exc))
         return None
     if mission is not None and env.mission != mission:
-        log.warning("dropped a message of mission %r (this is %r)", env.mission, mission)
+        log.debug("dropped a message of mission %r (this is %r)", env.mission, mission)
         return None
     cls = MESSAGE_TYPES.get(env.type)
     if cls is None:
-        log.warning("dropped a message of unknown type %r from %s", env.type, env.sender)
+        log.debug("dropped a message of unknown type %r from %s", env.type, env.sender)
         return None
     body = dict(env.body)
     if cls is Bid and body.get("utility", 0.0) is None:
@@ -148,10 +149,10 @@ def decode(payload: bytes, mission: str | None = None) -> Message | None:
     try:
         msg = cls.model_validate(body)
     except ValidationError as exc:
-        log.warning("dropped an invalid %s from %s: %s", env.type, env.sender, _short(exc))
+        log.debug("dropped an invalid %s from %s: %s", env.type, env.sender, _short(exc))
         return None
     if msg.sender != env.sender:
-        log.warning("dropped a %s whose sender %r is not the envelope's", env.type, msg.sender)
+        log.debug("dropped a %s whose sender %r is not the envelope's", env.type, msg.sender)
         return None
     return msg
 
@@ -166,10 +167,10 @@ def decode_json(payload: bytes) -> dict[str, Any] | None:
     try:
         data = json.loads(payload, parse_constant=_no_constant)
     except (ValueError, TypeError, RecursionError) as exc:
-        log.warning("dropped a malformed payload: %s", _short(exc))
+        log.debug("dropped a malformed payload: %s", _short(exc))
         return None
     if not isinstance(data, dict) or data.get("v") != VERSION:
-        log.warning("dropped a payload that is not a version-%d object", VERSION)
+        log.debug("dropped a payload that is not a version-%d object", VERSION)
         return None
     return data
 

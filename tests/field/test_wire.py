@@ -4,6 +4,7 @@ never raised (a robot must not crash on what it hears)."""
 from __future__ import annotations
 
 import json
+import logging
 import math
 import time
 
@@ -103,8 +104,11 @@ def _envelope(**over: object) -> bytes:
     ],
 )
 def test_malformed_is_dropped(payload: bytes, caplog: pytest.LogCaptureFixture) -> None:
-    assert decode(payload, "m1") is None
-    assert "dropped" in caplog.text
+    """Dropped, and said at debug level only: the caller counts it and logs it once per
+    sender per interval (field.trust.Rejections), not once per message."""
+    with caplog.at_level(logging.DEBUG, logger="regolith.field.wire"):
+        assert decode(payload, "m1") is None
+    assert "dropped" in caplog.text and all(r.levelno == logging.DEBUG for r in caplog.records)
 
 
 def test_other_mission_is_dropped() -> None:
