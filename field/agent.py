@@ -298,7 +298,11 @@ class Agent:
             return
         if cmd.get("cmd") == "stop":
             self.stopped.set()
-        elif cmd.get("cmd") == "set_policy" and cmd.get("policy") in POLICIES:
+        elif (
+            cmd.get("cmd") == "set_policy"
+            and cmd.get("policy") in POLICIES
+            and POLICIES[cmd["policy"]].decentralized  # (a centralized one needs global state)
+        ):
             with self.lock:
                 self.ctx.policy = make_policy(cmd["policy"])
                 self.robot.wake()

@@ -10,12 +10,13 @@ service cannot store, or that another robot should have sent.
 
 from __future__ import annotations
 
+import json
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from engine.messages import Heartbeat
 from field.link import Link
@@ -71,6 +72,13 @@ class ReportedEvent(_Strict):
     event: Annotated[str, Field(pattern=r"^[a-z_]{1,40}$")]
     data: Annotated[dict[str, Any], Field(max_length=64)]
     by: Name
+
+    @field_validator("data")
+    @classmethod
+    def _json(cls, v: dict[str, Any]) -> dict[str, Any]:
+        """Stored as JSON: no NaN or infinity anywhere in it."""
+        json.dumps(v, allow_nan=False)
+        return v
 
 
 @dataclass
