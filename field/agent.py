@@ -34,7 +34,7 @@ from engine.world import generate_world
 from field.link import Link
 from field.remote import PeerBody, RemoteField, look, serve_body
 from field.transport import Faults, Stalls, ZenohBus, open_session
-from field.trust import CONTROL, Credential, Rejected
+from field.trust import CONTROL, Credential, Opened, Rejected
 from field.wire import (
     body_key,
     check_segment,
@@ -264,6 +264,8 @@ class Agent:
         ):
             self.link.reply(query, req, {"ok": False, "error": "caller: not the signer"})
             return
+        if isinstance(caller, dict):
+            caller["rtype"] = opened.cert.role  # what it is, not what it says it is
         reply: dict[str, Any] = {"ok": False, "error": BUSY}  # the caller asks again
         if self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
             try:
@@ -290,11 +292,8 @@ class Agent:
     def _on_command(self, sample: Any) -> None:
         """Commands are mission control's alone (signed with its credential)."""
         got = self.link.open_json(str(sample.key_expr), sample.payload.to_bytes())
-        if got is None:
-            return
-        opened, cmd = got
-        if opened.sender != CONTROL:
-            self._refuse(opened.sender, "not mission control", "a command")
+        cmd = self._from_control(got, "a command")
+        if cmd is None:
             return
         if cmd.get("cmd") == "stop":
             self.stopped.set()
@@ -313,13 +312,9 @@ class Agent:
     def _on_task(self, query: Any) -> None:
         """The operator's console: mission control asks it to auction an operator task (the
         operator's authority is mission control's: it checked the operator's token)."""
-        got = self.link.take_query(query)
-        if got is None:
-            return
-        opened, req = got
-        if opened.sender != CONTROL:
-            self._refuse(opened.sender, "not mission control", "an operator task")
-            return
+        req = self._from_control(self.link.take_query(query), "an operator task")
+        if req is None:
+            return  # (not answered: the asker is no one to answer)
         task = decode_inject({k: v for k, v in req.items() if k != "rid"})
         reply: dict[str, Any] = {"ok": False, "error": "malformed operator task"}
         if task is not None and not self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
@@ -335,8 +330,15 @@ class Agent:
                 self.lock.release()
         self.link.reply(query, req, reply)
 
-    def _refuse(self, who: str, reason: str, what: str) -> None:
-        self.link.opener.rejections.count(Rejected(reason, who, what))
+    def _from_control(self, got: tuple[Opened, dict[str, Any]] | None, what: str) -> Any:
+        """The body of a checked frame if mission control signed it; None (counted) else."""
+        if got is None:
+            return None
+        opened, data = got
+        if opened.sender != CONTROL:
+            self.link.opener.rejections.count(Rejected("not mission control", opened.sender, what))
+            return None
+        return data
 
     def report(self, data: dict[str, Any]) -> None:
         """An event or auction record for mission control (robots never read these)."""
