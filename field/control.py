@@ -83,6 +83,7 @@ class FieldMission:
         self._auction_watchers: list[Callable[[str], None]] = []
         self.odometer = Odometer()
         self._closed = False
+        self._down: set[str] | None = None  # at the end: robots down before it stay down
         self._lock = threading.Lock()
         self.fleet.up(operator=True)
 
@@ -155,6 +156,7 @@ class FieldMission:
             if self._closed:
                 return
             self._closed = True
+        self._down = {n for n, p in self.fleet.procs.items() if p.popen.poll() is not None}
         self.fleet.close()
 
     # --- views ------------------------------------------------------------------------------
@@ -164,7 +166,8 @@ class FieldMission:
     def _robot(self, name: str, full: bool) -> dict[str, Any]:
         hb = self.fleet.recorder.heartbeats.get(name)
         proc = self.fleet.procs.get(name)
-        alive = proc is not None and proc.popen.poll() is None
+        ended = self._down is not None and name not in self._down  # (its process ended with it)
+        alive = proc is not None and (ended or proc.popen.poll() is None)
         rtype = name.rsplit("-", 1)[0]
         distance = self.odometer.metres.get(name, 0.0)
         if hb is None:
@@ -331,12 +334,9 @@ class FieldMission:
         return name
 
     def inject_task(self, task_type: str = "excavate", location: Any = ()) -> str:
-        """As `engine.Mission.inject_task` (the same checks, the same snapping to a known site,
-        the same action and event), but the auction is run by the operator's console, an
-        agent process of its own, which mission control asks over the wire (`InjectTask`).
-
-        Three steps, so a caller can leave the middle one, a round trip of up to
-        `INJECT_WAIT_S`, outside its own locks and event loop (app/services/commands.py)."""
+        """As `engine.Mission.inject_task`, but auctioned by the operator's console (an agent
+        process) asked over the wire; in three steps, so a caller can leave the middle one,
+        a round trip, outside its locks and event loop (app/services/commands.py)."""
         injection = self.plan_injection(task_type, location)
         return self.record_injection(injection, self.send_injection(injection))
 

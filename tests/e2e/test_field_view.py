@@ -96,6 +96,8 @@ def _field_view(page: Page, console: ConsoleLog, start_mission: Start, api: http
     counters = page.evaluate("window.__regolith.lastCounters")
     assert counters["minerals_delivered"] == m["minerals_delivered"] == 64, (counters, m)
     expect(page.locator("[data-counter='minerals']")).to_have_text("64/64")
+    # no robot was stopped: none is shown failed because its process ended with the mission
+    expect(page.locator('#robot-table tr[data-robot][data-state="failed"]')).to_have_count(0)
     # the stored metrics carry the distances, as a simulated run's do
     assert all(m["distance"][t] > 0 for t in ("scout", "excavator", "hauler")), m["distance"]
     assert m["distance_total"] == pytest.approx(sum(m["distance"].values()))

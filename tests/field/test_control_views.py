@@ -4,6 +4,7 @@ stand-in fleet whose recorder (the real `field.fleet.Recorder`) is fed by hand.
 - An auction record changes in a report of its own, often just after the event naming it;
   the live runner must stream the change, not only the record as it stood at the event.
 - Each robot's distance travelled is summed from its heartbeats, along the announced route.
+- The robots still running at the end are not stored as failed (their processes end with it).
 """
 
 from __future__ import annotations
@@ -35,6 +36,10 @@ class StandInFleet:
 
     def up(self, operator: bool) -> None:
         pass
+
+    def close(self) -> None:
+        for proc in self.procs.values():  # every agent ends with the mission
+            proc.code = proc.code if proc.code is not None else -15
 
     def now(self) -> float:
         return self.t
@@ -107,3 +112,30 @@ def test_the_mission_reports_heard_distances(mission: control.FieldMission) -> N
     mission.advance(10.0)
     m = mission.odometer.metrics()
     assert m["distance"] == {"scout": 0.0, "excavator": 0.0, "hauler": pytest.approx(10.0)}
+
+
+class Proc:
+    """An agent process: `code` None while it runs."""
+
+    def __init__(self, code: int | None) -> None:
+        self.code = code
+        self.popen = SimpleNamespace(poll=lambda: self.code)
+
+
+def test_robots_running_at_the_end_are_not_stored_as_failed(
+    mission: control.FieldMission,
+) -> None:
+    fleet = mission.fleet
+    fleet.procs = {"hauler-1": Proc(None), "hauler-2": Proc(-9)}  # hauler-2: SIGKILLed before
+    for name in fleet.procs:
+        fleet.recorder.heartbeats[name] = beat(1.0, 2.0, [])
+    assert {r["name"]: r["state"] for r in mission.robot_list()} == {
+        "hauler-1": "moving",
+        "hauler-2": "failed",
+    }
+    mission.close()  # the mission ended: every process is gone now
+    assert all(p.popen.poll() is not None for p in fleet.procs.values())
+    assert {r["name"]: r["state"] for r in mission.robot_list()} == {
+        "hauler-1": "moving",
+        "hauler-2": "failed",
+    }
