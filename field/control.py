@@ -2,15 +2,15 @@
 of an engine `Mission` (the same methods the runner, the recorder and the views call), built
 from what mission control hears on the mission's key space, not from an engine it steps.
 
-Events and auction records arrive from the agents and the world service; robots' poses come
-from their heartbeats (position, state, load and the route ahead, followed at the robot's
-speed between two heartbeats); the field's counters from the world service. Operator
-commands become processes (disable: SIGKILL; enable: the same name started again, a rejoin;
-add: a new process) or commands on the key space (policy switch).
+Events and auction records arrive from the agents and the world service; robots' poses and
+distances from their heartbeats (field/odometer.py); the counters from the world service.
+Operator commands become processes (disable: SIGKILL; enable: the same name again; add: a new
+process) or commands on the key space (policy switch).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 from collections.abc import Callable
@@ -24,6 +24,7 @@ from engine.policies import POLICIES, resolve_policy
 from engine.robots.scout import site_task_id
 from engine.scenario import Scenario
 from field.fleet import Fleet
+from field.odometer import Odometer
 
 
 class RecordView:
@@ -78,7 +79,11 @@ class FieldMission:
         self._subscribers: list[Callable[[Event], None]] = []
         self._seen_events = 0
         self._seen_auctions: set[str] = set()
+        self._taken: dict[str, dict[str, Any]] = {}  # each record as last taken in
+        self._auction_watchers: list[Callable[[str], None]] = []
+        self.odometer = Odometer()
         self._closed = False
+        self._down: set[str] | None = None  # at the end: robots down before it stay down
         self._lock = threading.Lock()
         self.fleet.up(operator=True)
 
@@ -111,6 +116,11 @@ class FieldMission:
     def subscribe(self, fn: Callable[[Event], None]) -> None:
         self._subscribers.append(fn)
 
+    def watch_auctions(self, fn: Callable[[str], None]) -> None:
+        """`fn(auction_id)` on every change of a record: it comes in a report of its own,
+        often just after the event naming it, so the event alone would stream it unchanged."""
+        self._auction_watchers.append(fn)
+
     def advance(self, until: float) -> None:
         """Take in what was heard since the last call (the agents run on their own clocks)."""
         if self.done:
@@ -133,28 +143,32 @@ class FieldMission:
             fresh = rec.events[self._seen_events :]
             self._seen_events = len(rec.events)
             new_ids = [a for a in rec.auctions if a not in self._seen_auctions]
-        for aid in new_ids:
-            self._seen_auctions.add(aid)
-            self.auctions.append(RecordView(rec.auctions, aid))
+            changed = [a for a, r in rec.auctions.items() if self._taken.get(a) is not r]
+            self._taken.update((a, rec.auctions[a]) for a in changed)
+            heard = list(rec.heartbeats.items())
+        self._seen_auctions.update(new_ids)
+        self.auctions.extend(RecordView(rec.auctions, a) for a in new_ids)
+        self.odometer.heard(heard)
         for e in fresh:
             data = dict(e.get("data") or {})
             if e.get("by") not in (None, "world"):
                 data.setdefault("robot", e["by"])
             self._emit(float(e.get("t", self.now)), str(e.get("event")), data)
+        for fn, aid in itertools.product(self._auction_watchers, changed):
+            fn(aid)
 
     def _end(self, status: str) -> None:
         self.status = status
-        self._emit(self.now, "mission_ended", {"status": status, "makespan_s": self._makespan()})
+        makespan = self.fleet.world.field.finished_at
+        self._emit(self.now, "mission_ended", {"status": status, "makespan_s": makespan})
         self.close()
-
-    def _makespan(self) -> float | None:
-        return self.fleet.world.field.finished_at
 
     def close(self) -> None:
         with self._lock:
             if self._closed:
                 return
             self._closed = True
+        self._down = {n for n, p in self.fleet.procs.items() if p.popen.poll() is not None}
         self.fleet.close()
 
     # --- views ------------------------------------------------------------------------------
@@ -164,8 +178,10 @@ class FieldMission:
     def _robot(self, name: str, full: bool) -> dict[str, Any]:
         hb = self.fleet.recorder.heartbeats.get(name)
         proc = self.fleet.procs.get(name)
-        alive = proc is not None and proc.popen.poll() is None
+        ended = self._down is not None and name not in self._down  # (its process ended with it)
+        alive = proc is not None and (ended or proc.popen.poll() is None)
         rtype = name.rsplit("-", 1)[0]
+        distance = self.odometer.metres.get(name, 0.0)
         if hb is None:
             x, y = self.fleet.world.starts.get(name, self.world.plant)
             heading, state, load = 0.0, "idle", 0
@@ -175,6 +191,7 @@ class FieldMission:
             path = hb.path
             if len(path) >= 2 and alive:
                 (x, y), heading = point_along(list(path), max(0.0, (self.now - hb.t) * speed))
+                distance += math.dist((x, y), (hb.x, hb.y))  # since the last heartbeat
             else:
                 x, y, heading = hb.x, hb.y, 0.0
             state, load = hb.state, hb.load
@@ -191,7 +208,7 @@ class FieldMission:
         if full:
             d.update(
                 task=None,
-                distance=0.0,
+                distance=distance,
                 path=[[p[0], p[1]] for p in path],
                 enabled=alive,
                 partner=None,
@@ -211,8 +228,8 @@ class FieldMission:
             "minerals_total": f.minerals_total,
             "auctions": len(recs),
             "bids": sum(len(a.get("bids") or ()) for a in recs),
-            "declines": sum(
-                1 for a in recs for w in a.get("awards") or () if w["outcome"] == "declined"
+            "declines": [w["outcome"] for a in recs for w in a.get("awards") or ()].count(
+                "declined"
             ),
             "reannouncements": sum(a.get("reannouncements") or 0 for a in recs),
             "messages": self.fleet.recorder.messages,
@@ -262,6 +279,7 @@ class FieldMission:
             "reauctions": sum(1 for a in self.auctions if a.to_dict().get("reauction_of")),
             "failures": sum(1 for a in self.actions if a["kind"] == "disable_robot"),
             "policy_changes": sum(1 for a in self.actions if a["kind"] == "set_policy"),
+            **self.odometer.metrics(),
             "field": True,
             "processes": len(self.fleet.history),
             "rejections": self.rejections(),
@@ -329,12 +347,9 @@ class FieldMission:
         return name
 
     def inject_task(self, task_type: str = "excavate", location: Any = ()) -> str:
-        """As `engine.Mission.inject_task` (the same checks, the same snapping to a known site,
-        the same action and event), but the auction is run by the operator's console, an
-        agent process of its own, which mission control asks over the wire (`InjectTask`).
-
-        Three steps, so a caller can leave the middle one, a round trip of up to
-        `INJECT_WAIT_S`, outside its own locks and event loop (app/services/commands.py)."""
+        """As `engine.Mission.inject_task`, but auctioned by the operator's console (an agent
+        process) asked over the wire; in three steps, so a caller can leave the middle one,
+        a round trip, outside its locks and event loop (app/services/commands.py)."""
         injection = self.plan_injection(task_type, location)
         return self.record_injection(injection, self.send_injection(injection))
 
@@ -395,7 +410,3 @@ class FieldMission:
         if name not in self.fleet.procs:
             raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
         return self._robot(name, True)
-
-
-def is_finite(x: float | None) -> bool:
-    return x is not None and math.isfinite(x)

@@ -19,9 +19,24 @@ def _where(loc: Any) -> str:
     return ".".join(str(p) for p in loc) or "request"
 
 
-async def _validation(_: Request, exc: Exception) -> JSONResponse:
+def _is_json(content_type: str) -> bool:
+    media = content_type.split(";", 1)[0].strip().lower()
+    return media == "application/json" or (
+        media.startswith("application/") and media.endswith("+json")
+    )
+
+
+async def _validation(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     errors = jsonable_encoder(exc.errors(), exclude={"input", "ctx", "url"})
+    sent = request.headers.get("content-type", "")
+    if not _is_json(sent):
+        # FastAPI reads a body of another type as form data or not at all, then says only
+        # "Input should be a valid dictionary": say what to send instead
+        why = f"send JSON with Content-Type: application/json (this request's: {sent or 'none'})"
+        for e in errors:
+            if tuple(e["loc"]) == ("body",):
+                e["msg"] = why
     message = "; ".join(f"{_where(e['loc'])}: {e['msg']}" for e in errors)
     return JSONResponse({"detail": errors, "message": message}, status_code=422)
 

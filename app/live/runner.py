@@ -242,6 +242,10 @@ class MissionRunner:
         )
         lm.reanchor()
         mission.subscribe(lambda ev: self._on_event(lm, ev))
+        # a field mission's records change in reports of their own, not only with an event
+        watch = getattr(mission, "watch_auctions", None)
+        if watch is not None:
+            watch(lambda aid: self._on_auction(lm, aid))
         self.live[mission_id] = lm
         log.info(
             "mission %s live at t=%.1f (%s)",
@@ -266,6 +270,12 @@ class MissionRunner:
             lm.dirty_auctions.add(aid)
         if ev.kind not in QUIET_KINDS:
             lm.outbox.append(ev)
+
+    @staticmethod
+    def _on_auction(lm: LiveMission, auction_id: str) -> None:
+        """An auction's record changed (under the gate): stream it at the next tick."""
+        if lm.hub.viewers:
+            lm.dirty_auctions.add(auction_id)
 
     def publish_pending(self, lm: LiveMission) -> None:
         """Stream the events and auction changes noted since the last call (under the gate)."""

@@ -35,6 +35,7 @@ class SweepJob:
     pool: ProcessPoolExecutor | None = None
     progress: Progress | None = None
     cancelling: bool = False
+    phase: str = "runs"  # then "figures": the statistics and figures being written
     final: dict[str, Any] | None = None
     finished: asyncio.Future[BaseException | None] | None = None
     task: asyncio.Task[None] | None = None
@@ -46,7 +47,10 @@ class SweepJob:
     def live_fields(self) -> dict[str, Any]:
         if self.final is not None:
             return self.final
-        out: dict[str, Any] = {"status": "cancelling" if self.cancelling else "running"}
+        out: dict[str, Any] = {
+            "status": "cancelling" if self.cancelling else "running",
+            "phase": self.phase,
+        }
         if self.progress is not None:
             out.update(progress_fields(self.progress))
         return out
@@ -102,6 +106,7 @@ def _execute(job: SweepJob, workers: int) -> None:
             outputs=False,
             window=2 * workers,
         )
+        job.phase = "figures"  # every run done: a minute of statistics and plotting may follow
         pool.submit(write_outputs, job.spec, result.records, job.out_dir, engine_bound).result()
         clean = True
     finally:

@@ -126,6 +126,11 @@ class SweepRead(BaseModel):
     failed: int
     elapsed_s: float = Field(description="wall time of the current (or last) session")
     eta_s: float | None
+    phase: Literal["runs", "figures"] | None = Field(
+        None,
+        description="while running: `runs`, then `figures` (every run done, the statistics "
+        "and figures being written); null once it has ended",
+    )
     created_at: datetime
     started_at: datetime | None
     ended_at: datetime | None

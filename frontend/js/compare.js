@@ -124,7 +124,7 @@ export class ComparePage {
         ),
         h("td", {}, h("a", { href: `#/live/${encodeURIComponent(m.id)}` }, shortId(m.id)), fieldMark(m)),
         h("td", { class: "policy-cell", title: policyText(m) }, policyText(m), m.mixed_policy ? h("span", { class: "badge mixed", title: "The policy was switched during the run" }, "mixed") : null),
-        h("td", { class: "scenario-cell", title: `${m.scenario_name} (hash ${m.scenario_hash})` }, m.scenario_name),
+        h("td", { class: "scenario-cell", title: `${m.scenario_name} (hash ${m.scenario_hash})` }, h("span", {}, m.scenario_name)),
         h("td", { class: "num" }, m.seed),
         h("td", { class: "num" }, fmt(this.metrics.get(m.id)?.makespan_s, 0)),
       );

@@ -27,6 +27,7 @@ export class AuctionFeed {
   }
 
   reset() {
+    this.known = 0;
     this.records.clear();
     this.cards.clear();
     this.order = [];
@@ -122,9 +123,22 @@ export class AuctionFeed {
     return out;
   }
 
+  /** How many auctions the mission has, as its counters say: the feed may hold fewer (the
+   * page joined late and read the newest 200) or more (auctions newer than the last frame). */
+  setKnown(n) {
+    if (n === this.known) return;
+    this.known = n;
+    this._count();
+  }
+
+  /** {total, open}: what the header says, and the counters box too (one count, not two). */
+  counts() {
+    return { total: Math.max(this.records.size, this.known || 0), open: this.openIds.size };
+  }
+
   _count() {
-    const open = this.openIds.size;
-    this.countEl.textContent = `${this.records.size} · ${open} open`;
+    const { total, open } = this.counts();
+    this.countEl.textContent = `${total} · ${open} open`;
   }
 
   _card(r) {

@@ -53,15 +53,19 @@ export function validId(text) {
   return /^[1-9][0-9]{0,9}$/.test(String(text)) && Number(text) <= 2 ** 31 - 1;
 }
 
-/** The progress box on the map: a frame's (or the stored) counters and scanned share. */
-export function showCounters(box, f, grid) {
+/** The progress box on the map: a frame's (or the stored) counters and scanned share.
+ * `feed` ({total, open}: the auction feed's count, `AuctionFeed.counts()`) makes the auctions
+ * read as the feed's header does, so the two never disagree. */
+export function showCounters(box, f, grid, feed = null) {
   const c = f.counters || {}; // {} until the first frame of a mission stored without a state
+  const auctions = feed ? feed.total : c.auctions;
   const cells = grid ? grid.cols * grid.rows : null;
   const items = [
     ["sites", `${c.sites_found ?? "–"}/${c.sites_total ?? "–"}`],
     ["minerals", `${c.minerals_delivered ?? "–"}/${c.minerals_total ?? "–"}`],
     ["scanned", cells && f.scanned_count !== undefined ? `${Math.round((100 * f.scanned_count) / cells)}%` : "–"],
-    ["auctions", c.auctions ?? "–"],
+    ["auctions", auctions ?? "–"],
+    ["open", feed ? feed.open : "–"],
     ["bids", c.bids ?? "–"],
     ["declines", c.declines ?? "–"],
   ];

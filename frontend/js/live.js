@@ -2,7 +2,7 @@
 // feed and the charts; the operator's controls call the REST API. The mission's status is
 // the server's word only (status.js): frames move robots and the clock, never the status.
 
-import { $, clock, fmt, toast } from "./dom.js";
+import { $, clock, toast } from "./dom.js";
 import { get } from "./api.js";
 import { LiveStream } from "./stream.js";
 import { MapView } from "./mapview.js";
@@ -16,6 +16,7 @@ import { exposeLive } from "./liveexpose.js";
 import { Playback } from "./playback.js";
 import { FrameState } from "./framestate.js";
 import { loadHistory } from "./livehistory.js";
+import { showHover, showLegendItem, siteEvent } from "./livemap.js";
 
 const DETAIL_MS = 1000; // robot list (paths, tasks, distance) refresh while the stream runs
 const FRAME_FIELDS = ["name", "type", "state", "x", "y", "heading", "load", "alive"];
@@ -42,7 +43,7 @@ export class LiveView {
     // the parts below know this view only through these callbacks
     this.map = new MapView($("#map"), {
       onPick: (x, y) => this.playback.active || this.controls.pick(x, y), // none while looking back
-      onCursor: (x, y) => this._hover(x, y),
+      onCursor: (x, y) => showHover(this.map, this.state.detail, x, y),
     });
     this.feed = new AuctionFeed($("#auction-feed"), $("#feed-count"));
     this.table = new RobotTable($("#robot-table tbody"), $("#robot-count"), {
@@ -92,22 +93,6 @@ export class LiveView {
     };
   }
 
-  /** The cursor's map position, and the robot under it (name, state, task, load). */
-  _hover(x, y) {
-    const out = $("#cursor-pos");
-    if (x === null) {
-      out.textContent = "";
-      return;
-    }
-    let text = `x ${fmt(x)}  y ${fmt(y)}`;
-    const pose = this.map.robotAt(x, y);
-    if (pose) {
-      const r = { ...this.state.detail.get(pose.name), ...pose };
-      text += ` · ${r.name} ${r.state}${r.task ? ` · ${r.task}` : ""}${r.load ? ` · load ${r.load}` : ""}`;
-    }
-    out.textContent = text;
-  }
-
   /** Ended for good (completed, stopped, stalled, …): shown from its record. */
   get finished() {
     return ENDED.has(this.status.status);
@@ -152,7 +137,7 @@ export class LiveView {
     }
     if (!current()) return;
     this.stream.connect(id);
-    loadHistory(id, { feed: this.feed, charts: this.charts, current: () => id === this.id });
+    loadHistory(id, { feed: this.feed, charts: this.charts, current: () => id === this.id }).then(() => id === this.id && this._recount());
     this.poll = setInterval(() => this._refreshDetail(), DETAIL_MS);
   }
 
@@ -193,7 +178,8 @@ export class LiveView {
       case "frame":
         return this._frame(this.frames.view());
       case "auction":
-        return this.feed.upsert(msg.auction);
+        this.feed.upsert(msg.auction);
+        return this._recount(); // the box counts auctions as the feed does
       case "event":
         return this._event(msg.event);
       case "status":
@@ -249,6 +235,7 @@ export class LiveView {
     }
     for (const name of [...s.robots.keys()]) if (!names.has(name)) s.robots.delete(name);
     this.map.setRobots(robots, { snap });
+    showLegendItem("charge", robots.some((r) => r.charge !== undefined && r.charge !== null));
     if (f.scannedBits) this.map.setScannedBits(f.scannedBits);
     else if (f.scanned) this.map.setScanned(f.scanned);
     const canvas = $("#map");
@@ -262,8 +249,14 @@ export class LiveView {
     this.charts.onFrame({ t: s.t, counters: s.counters });
   }
 
+  /** The counters box again, with the counters shown (a frame's, or the stored ending's). */
+  _recount() {
+    this._counters({ ...(this.state.lastFrame || {}), counters: this.state.counters });
+  }
+
   _counters(f) {
-    showCounters($("#live-counters"), f, this.state.map?.grid);
+    if (f.counters?.auctions !== undefined) this.feed.setKnown(f.counters.auctions);
+    showCounters($("#live-counters"), f, this.state.map?.grid, this.feed.counts());
   }
 
   /** {seq, t, kind, data}: the engine's event (data as docs/engine-api.md lists it). */
@@ -274,7 +267,7 @@ export class LiveView {
     switch (ev.kind) {
       case "site_found":
       case "dug":
-        this._siteEvent(ev.kind, d);
+        siteEvent(this.map, this.state.map, ev.kind, d);
         break;
       case "mineral_dropped":
         this.map.addDropped(d.x, d.y);
@@ -298,21 +291,13 @@ export class LiveView {
     }
   }
 
-  /** site_found {site, by, x, y} and dug {robot, site, remaining}: the site as the map shows it
-   * (known from the snapshot, which lists every site, or else from the ground-truth map). */
-  _siteEvent(kind, d) {
-    const truth = this.state.map?.sites.find((s) => s.id === d.site);
-    const known = this.map.site(d.site) ?? (truth && { id: truth.id, x: truth.x, y: truth.y, total: truth.minerals, remaining: truth.minerals });
-    if (!known) return;
-    this.map.setSites([{ ...known, found: true, ...(kind === "dug" ? { remaining: d.remaining } : { x: d.x, y: d.y }) }]);
-  }
-
   /** Enable or disable every control for the current token and mission state. */
   applyControl() {
     this.status.apply();
   }
 
   _setDetail(list) {
+    showLegendItem("pair", list.some((r) => r.partner));
     this.state.detail = new Map(list.map((r) => [r.name, r]));
     this.map.setDetail(list);
     this.charts.onDetail(list);
@@ -380,9 +365,15 @@ export class LiveView {
     s.t = fin.mission.sim_time;
     $("#live-time").textContent = clock(s.t);
     if (fin.metrics) s.counters = { ...s.counters, ...pick(fin.metrics, COUNTER_KEYS) };
-    this._counters({ ...(s.lastFrame || {}), counters: s.counters });
+    this._recount();
     this.charts.showFinal({ t: s.t, deliveries: fin.deliveries, metrics: fin.metrics, robots: fin.robots, openTimes: fin.openTimes });
     $("#live").dataset.final = "true";
+    // an auction the feed still shows open is read again as stored (its close may have come
+    // after the stream's last word)
+    if (this.feed.openIds.size) {
+      const current = () => this.finalShown === id && id === this.id;
+      loadHistory(id, { feed: this.feed, charts: this.charts, current }).then(() => current() && this._recount());
+    }
   }
 
   /** Back to the stream's word: another mission, or this one resumed (polls again). */

@@ -1,5 +1,6 @@
 // The live view's three charts: minerals delivered over sim time, distance by robot type,
-// and auction open times by kind. Redrawn at most once a second.
+// and auction open times by kind. Redrawn at most once a second, and always after the last
+// change: a chart never stays behind the table and counters once the figures stop moving.
 
 import { $ } from "./dom.js";
 import { barChart, stepChart, stripChart, timeTicks } from "./charts.js";
@@ -30,6 +31,7 @@ export class LiveCharts {
     this.total = null;
     this.t = 0;
     this.drawnAt = 0;
+    this.shown = null; // the figures as last drawn
     this.final = false; // showing the stored ending: the stream no longer moves the charts
   }
 
@@ -45,7 +47,20 @@ export class LiveCharts {
       else if (this.last !== null) this.delivered.push([t, v]);
       this.last = v;
     }
-    if (performance.now() - this.drawnAt > REDRAW_MS) this.draw();
+    this._soon();
+  }
+
+  /** Draw now if the last draw is a second old, else once that second is over. */
+  _soon() {
+    const wait = REDRAW_MS - (performance.now() - this.drawnAt);
+    if (wait <= 0) return this.draw();
+    if (!this.timer) {
+      this.timer = setTimeout(() => {
+        this.timer = null;
+        this.draw();
+      }, wait);
+    }
+    return undefined;
   }
 
   onDetail(list) {
@@ -56,6 +71,7 @@ export class LiveCharts {
       sum[type] = (sum[type] || 0) + (Number(r.distance) || 0);
     }
     this.distance = sum;
+    this._soon();
   }
 
   /** Backfill from stored `delivered` events when joining a running mission. */
@@ -80,15 +96,20 @@ export class LiveCharts {
     this.draw();
   }
 
-  /** What the charts show (for tests): {t, delivered, total, distance, final}. */
+  /** The charts' figures (for tests): {t, delivered, total, distance, final}, and `shown`:
+   * {t, delivered (the curve's last count), distance} as last drawn. */
   figures() {
     const open = this.final && this.finalOpen ? this.finalOpen : this.openTimes();
-    return { t: this.t, delivered: this.delivered.map((p) => [...p]), total: this.total, distance: { ...this.distance }, openTimes: open, final: this.final };
+    return { t: this.t, delivered: this.delivered.map((p) => [...p]), total: this.total, distance: { ...this.distance }, openTimes: open, final: this.final, shown: this.shown };
   }
 
   draw() {
     if ($("#live").hidden) return;
     this.drawnAt = performance.now();
+    clearTimeout(this.timer);
+    this.timer = null;
+    const last = this.delivered.length ? this.delivered[this.delivered.length - 1][1] : 0;
+    this.shown = { t: this.t, delivered: last, distance: { ...this.distance } };
     stepChart($("#chart-minerals"), [{ name: "delivered", colour: "#f0e442", points: this.delivered, dashedMax: this.total ?? undefined }], {
       xMax: this.t,
       yMax: this.total ?? 0,

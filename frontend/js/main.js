@@ -81,7 +81,8 @@ onTokenChange((operator) => {
 
 // the legend under the map: shapes per type, then what the marks mean
 function legend() {
-  const item = (node, text) => h("span", {}, node, text);
+  // `only`: an item shown only while it applies (the live view says when: js/live.js)
+  const item = (node, text, only) => h("span", only ? { dataset: { legend: only }, hidden: true } : {}, node, text);
   const mark = (draw) => {
     const c = document.createElement("canvas");
     const dpr = window.devicePixelRatio || 1;
@@ -130,6 +131,7 @@ function legend() {
         ctx.stroke();
       }),
       "Policy 2 pair",
+      "pair",
     ),
     item(
       mark((ctx) => {
@@ -138,7 +140,8 @@ function legend() {
         ctx.fillStyle = BATTERY_COLOUR.low;
         ctx.fillRect(0, 5, 6, 4);
       }),
-      "charge (energy on)",
+      "charge",
+      "charge",
     ),
   );
 }

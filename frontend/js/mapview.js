@@ -5,6 +5,7 @@ import { drawScene } from "./mapdraw.js";
 import { WORKING } from "./maprobots.js";
 
 const DRAG_PX = 4; // a press that moves less than this is a click, not a pan
+const LABEL_PAD = 22; // px kept clear around the fitted area for the labels at its edge
 
 /** Shortest signed angle from a to b. */
 function angleDelta(a, b) {
@@ -187,7 +188,9 @@ export class MapView {
     const w = this.canvas.clientWidth;
     const hgt = this.canvas.clientHeight;
     if (!w || !hgt) return;
-    const scale = Math.min(w / this.map.width, hgt / this.map.height) * 0.94;
+    // a margin for the labels of glyphs at the area's edge (a site's count, a robot's name)
+    const pad = Math.min(LABEL_PAD, w / 8, hgt / 8);
+    const scale = Math.min((w - 2 * pad) / this.map.width, (hgt - 2 * pad) / this.map.height);
     this.view = {
       scale,
       fit: scale,
@@ -195,6 +198,7 @@ export class MapView {
       oy: (hgt - this.map.height * scale) / 2,
     };
     this.fitted = true;
+    this.moved = false; // until the user zooms or pans, a resize fits again
     this.draw();
   }
 
@@ -203,11 +207,13 @@ export class MapView {
     const scale = Math.min(v.fit * 40, Math.max(v.fit * 0.5, v.scale * factor));
     const k = scale / v.scale;
     this.view = { ...v, scale, ox: sx - (sx - v.ox) * k, oy: sy - (sy - v.oy) * k };
+    this.moved = true;
     this.draw();
   }
 
   panBy(dx, dy) {
     this.view = { ...this.view, ox: this.view.ox + dx, oy: this.view.oy + dy };
+    this.moved = true;
     this.draw();
   }
 
@@ -217,7 +223,9 @@ export class MapView {
     this.dpr = window.devicePixelRatio || 1;
     this.canvas.width = Math.max(1, Math.round(w * this.dpr));
     this.canvas.height = Math.max(1, Math.round(hgt * this.dpr));
-    if (!this.fitted) this.fit();
+    // the page settles after the map is set (notices, the timeline, the lists fill in): the
+    // whole area stays in view until the user moves it
+    if (!this.fitted || !this.moved) this.fit();
     this.draw();
   }
 
@@ -243,6 +251,7 @@ export class MapView {
       press.moved = true;
       c.classList.add("panning");
       this.view = { ...this.view, ox: press.ox + dx, oy: press.oy + dy };
+      this.moved = true;
       this.draw();
     });
     c.addEventListener("pointerup", (e) => {

@@ -15,6 +15,9 @@ const MARKERS_MS = 10000; // marker refresh while the mission is live
 const MARKER_EVENTS = { robot_failed: "failure", policy_changed: "policy", site_found: "site" };
 const MARKER_PAGES = 10;
 const MARKER_KINDS = Object.keys(MARKER_EVENTS).map((k) => `&kind=${k}`).join("");
+/** Why a field run has no playback: the server rebuilds a moment by re-simulating the run. */
+export const FIELD_NO_PLAYBACK =
+  "No playback for a field run: its robots were real processes, so a moment of it cannot be rebuilt by re-simulating it. The map, the lists and the charts follow the run as it happens.";
 
 function scalar(v) {
   if (Array.isArray(v)) return `(${v.map((x) => (typeof x === "number" ? x.toFixed(1) : x)).join(", ")})`;
@@ -78,6 +81,7 @@ export class Playback {
     this.timeline.setEnd(0);
     this.timeline.setTime(0);
     this.timeline.setMarkers([], () => {});
+    this.timeline.setDisabled(null);
     this._mode("latest");
     this.loaded = false; // markers are read once the stream says the mission exists
   }
@@ -93,9 +97,10 @@ export class Playback {
   intercept(msg) {
     if (msg.type === "frame") this._liveTime(msg.t);
     else if (msg.type === "snapshot") {
-      if (!this.loaded) this._loadMarkers();
-      this._liveTime(msg.mission.sim_time);
       const m = msg.mission; // the badge is the server's word, even while looking back
+      if (m.mode === "field") this._noPlayback(FIELD_NO_PLAYBACK);
+      if (!this.loaded) this._loadMarkers();
+      this._liveTime(m.sim_time);
       if (this.active) this.view.status.set({ status: m.status, policy: m.policy, speed: m.speed, error: m.error });
     } else if (msg.type === "status" && ENDED.has(msg.status)) this._ended();
     return this.active && msg.type !== "status";
@@ -123,9 +128,15 @@ export class Playback {
     }
   }
 
+  /** This mission cannot be looked back at: say why, and follow the stream only. */
+  _noPlayback(reason) {
+    this.timeline.setDisabled(reason);
+    if (this.active) this.latest();
+  }
+
   /** Show the mission at simulated time t (entering look-back). */
   seek(t) {
-    if (!this.id) return;
+    if (!this.id || this.timeline.disabled) return;
     const end = this.timeline.end;
     t = Math.max(0, Math.min(end, Number(t) || 0));
     if (!this.active) this._mode("back");
@@ -150,6 +161,8 @@ export class Playback {
         } catch (e) {
           if (id === this.id) {
             toast(`Playback: ${e.message}`, "error");
+            // never leave the view on a moment it could not show: back to the present
+            if (this.active) return this.latest();
             this.pause();
           }
           continue;

@@ -247,11 +247,14 @@ export class SweepPanel {
   renderProgress(s) {
     const box = $("#sweep-progress");
     box.hidden = false;
-    Object.assign(box.dataset, { sweep: s.id, status: s.status, done: s.done, total: s.total });
+    // every run done, the server writes the statistics and figures (a minute or so): say so
+    const building = ACTIVE.has(s.status) && s.phase === "figures";
+    Object.assign(box.dataset, { sweep: s.id, status: s.status, done: s.done, total: s.total, phase: building ? "figures" : "runs" });
     const bar = box.querySelector("progress");
     bar.max = s.total || 1;
-    bar.value = s.done;
-    const eta = ACTIVE.has(s.status) && s.eta_s !== null && s.eta_s !== undefined ? ` · ETA ${clock(s.eta_s)}` : "";
+    if (building) bar.removeAttribute("value"); // indeterminate: busy, no fraction to show
+    else bar.value = s.done;
+    const eta = building ? " · building figures…" : ACTIVE.has(s.status) && s.eta_s !== null && s.eta_s !== undefined ? ` · ETA ${clock(s.eta_s)}` : "";
     const failed = s.failed ? ` · ${s.failed} failed` : "";
     const error = s.error ? ` · ${s.error}` : "";
     $("#sweep-progress-text").textContent = `Sweep ${s.id} ${s.status}: ${s.done}/${s.total} runs${failed}${eta}${error}`;

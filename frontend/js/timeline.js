@@ -44,7 +44,8 @@ export class Timeline {
     );
     this.markLayer = h("div", { class: "tl-marks", "aria-label": "Markers" });
     this.time = h("output", { id: "tl-time", class: "tl-time" }, "–");
-    this.latest = h("button", { type: "button", class: "btn small primary", id: "tl-latest", hidden: true, onclick: () => onLatest() }, "Back to live");
+    this.latest = h("button", { type: "button", class: "btn small primary", id: "tl-latest", onclick: () => onLatest() }, "Back to live");
+    this.why = h("p", { id: "tl-why", class: "tl-why", hidden: true });
     this.el = h(
       "section",
       { id: "timeline", class: "timeline", "aria-label": "Mission playback", dataset: { mode: "latest", t: "", end: "0", shownT: "" } },
@@ -53,8 +54,23 @@ export class Timeline {
       h("div", { class: "tl-track" }, this.range, this.markLayer),
       this.time,
       this.latest,
+      this.why,
     );
     host.after(this.el);
+  }
+
+  /** Off (with the reason shown in its place) or on again (reason null): a mission that
+   * cannot be looked back at gets a timeline that says so instead of one that answers 409. */
+  setDisabled(reason) {
+    const off = Boolean(reason);
+    this.disabled = off;
+    for (const el of [this.range, this.play, this.speed]) el.disabled = off;
+    this.markLayer.inert = off;
+    this.el.classList.toggle("off", off);
+    this.why.hidden = !off;
+    this.why.textContent = reason || "";
+    if (off) this.el.dataset.disabled = "true";
+    else delete this.el.dataset.disabled;
   }
 
   /** The timeline's end: the mission's simulated time (grows while it is live). */
@@ -85,7 +101,10 @@ export class Timeline {
   /** "latest": following the stream (or the final state); "back": showing an earlier moment. */
   setMode(mode, latestLabel) {
     this.el.dataset.mode = mode;
-    this.latest.hidden = mode !== "back";
+    // out of sight but in its place while idle (see playback.css): the slider keeps its width
+    this.latest.classList.toggle("idle", mode !== "back");
+    this.latest.setAttribute("aria-hidden", String(mode !== "back"));
+    this.latest.tabIndex = mode === "back" ? 0 : -1;
     this.latest.textContent = latestLabel;
     this._label();
   }
@@ -127,5 +146,6 @@ export class Timeline {
     const back = this.el.dataset.mode === "back";
     const policy = back && this.policy ? ` · ${this.policy}` : "";
     this.time.textContent = `${back ? "looking back at " : ""}${clock(this.t)} / ${clock(this.end)}${policy}`;
+    this.time.title = this.time.textContent;
   }
 }

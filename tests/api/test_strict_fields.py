@@ -68,3 +68,22 @@ def test_sweep_fields_are_strict_and_seeds_bounded(
 ) -> None:
     _refused(api, "POST", "/api/sweeps", body, field)
     assert api.get("/api/sweeps").json()["total"] == 0
+
+
+@pytest.mark.parametrize(
+    "content_type", ["application/x-www-form-urlencoded", "text/plain", "multipart/form-data"]
+)
+def test_a_body_not_sent_as_json_says_what_to_send(api: httpx.Client, content_type: str) -> None:
+    """`curl -d '{…}'` without `-H "Content-Type: application/json"` sends a form: the 422
+    says to send JSON, not only "Input should be a valid dictionary"."""
+    body = '{"policy": "fcfs", "seed": 0, "planner": "straight"}'
+    res = api.post("/api/missions", content=body, headers={"Content-Type": content_type})
+    assert res.status_code == 422, res.text
+    message = res.json()["message"]
+    assert message.startswith("body: send JSON with Content-Type: application/json"), message
+    assert content_type in message
+    assert api.get("/api/missions").json()["total"] == 0
+    # the same body as JSON is a mission
+    res = api.post("/api/missions", content=body, headers={"Content-Type": "application/json"})
+    assert res.status_code == 201, res.text
+    api.post(f"/api/missions/{res.json()['id']}/stop")
