@@ -22,17 +22,14 @@ import numpy as np
 import simpy
 import zenoh
 
-from engine.auction_rules import AuctionRecord
-from engine.context import MissionContext
 from engine.messages import Heartbeat, Hello, Message
 from engine.mission import make_planner
 from engine.policies import POLICIES, make_policy
-from engine.robots import Excavator, Hauler, Operator, Robot, Scout
 from engine.scenario import Scenario
-from engine.spiral import spiral_routes
 from engine.world import generate_world
 from field.link import Link
 from field.remote import PeerBody, RemoteField, look, serve_body
+from field.robot import FieldContext, make_robot
 from field.transport import Faults, Stalls, ZenohBus, open_session
 from field.trust import CONTROL, Credential, Opened, Rejected
 from field.wire import (
@@ -48,7 +45,6 @@ from field.wire import (
 from field.world_service import MissionClock
 
 log = logging.getLogger("regolith.field.agent")
-_CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hauler": Hauler}
 QUERY_TIMEOUT_S = 2.0
 """How long (wall) a query to the world service or a peer may take; past it, no answer."""
 BUSY = "busy"
@@ -67,21 +63,6 @@ REPORT_REJECTIONS_S = 1.0
 
 class AgentError(RuntimeError):
     """The agent cannot join its mission (no world service, refused name, bad options)."""
-
-
-class FieldContext(MissionContext):
-    """A mission context whose auction records are also reported to mission control."""
-
-    report: Any = None
-
-    def new_auction(self, *args: Any, **kw: Any) -> AuctionRecord:
-        rec = super().new_auction(*args, **kw)
-        self.report({"kind": "auction", "record": rec.to_dict()})
-        return rec
-
-    def close_auction(self, rec: AuctionRecord, status: str, winner: str | None) -> None:
-        super().close_auction(rec, status, winner)
-        self.report({"kind": "auction", "record": rec.to_dict()})
 
 
 class Agent:
@@ -152,17 +133,7 @@ class Agent:
         )
         rtype, roster = spawn["rtype"], dict(spawn["roster"])
         pos = (float(spawn["pos"][0]), float(spawn["pos"][1]))
-        speed_mps = getattr(scenario.speeds, rtype, 1.0)
-        if rtype == "operator":  # the operator's console: auctions operator tasks
-            robot: Robot = Operator(name, ctx, pos, 1.0)
-        elif rtype == "scout":
-            routes = {
-                f"scout-{i + 1}": r
-                for i, r in enumerate(spiral_routes(world.grid, world.plant, scenario.team.scouts))
-            }
-            robot = Scout(name, ctx, pos, speed_mps, routes)
-        else:
-            robot = _CLASSES[rtype](name, ctx, pos, speed_mps)
+        robot = make_robot(name, rtype, ctx, pos)
         self.robot = robot
         ctx.robots[name] = robot
         for peer, ptype in roster.items():

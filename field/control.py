@@ -24,25 +24,8 @@ from engine.policies import POLICIES, resolve_policy
 from engine.robots.scout import site_task_id
 from engine.scenario import Scenario
 from field.fleet import Fleet
+from field.intake import RecordView
 from field.odometer import Odometer
-
-
-class RecordView:
-    """An auction as mission control last heard of it (`AuctionRecord`'s reading side)."""
-
-    def __init__(self, records: dict[str, dict[str, Any]], auction_id: str) -> None:
-        self._records, self.id = records, auction_id
-
-    def to_dict(self) -> dict[str, Any]:
-        return dict(self._records[self.id])
-
-    @property
-    def status(self) -> str:
-        return str(self._records[self.id]["status"])
-
-    @property
-    def reannouncements(self) -> int:
-        return int(self._records[self.id].get("reannouncements") or 0)
 
 
 @dataclass(frozen=True)

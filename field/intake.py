@@ -169,3 +169,21 @@ class Recorder:
         """The world service's own events (mission control's process: trusted)."""
         with self.lock:
             self.events.append(data)
+
+
+class RecordView:
+    """An auction as mission control last heard of it (`AuctionRecord`'s reading side)."""
+
+    def __init__(self, records: dict[str, dict[str, Any]], auction_id: str) -> None:
+        self._records, self.id = records, auction_id
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self._records[self.id])
+
+    @property
+    def status(self) -> str:
+        return str(self._records[self.id]["status"])
+
+    @property
+    def reannouncements(self) -> int:
+        return int(self._records[self.id].get("reannouncements") or 0)

@@ -12,10 +12,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import math
 from collections import Counter
 from collections.abc import Coroutine
-from dataclasses import dataclass, field
 from time import perf_counter
 from typing import Any
 
@@ -23,6 +21,8 @@ from app.db.models import utcnow
 from app.live.gate import Gate
 from app.live.gc_pause import GcPause
 from app.live.hub import Hub
+from app.live.mission import BATCH_EVENTS, LiveMission
+from app.live.records import auction_dict, describe, failed_record
 from app.live.stepper import Stepper
 from app.services.field_rules import dropped_of
 from app.services.recorder import Batch, Recorder
@@ -34,97 +34,7 @@ log = logging.getLogger("regolith.runner")
 
 #: Event kinds not forwarded to viewers: raw bus traffic (bids arrive as `auction` updates).
 QUIET_KINDS = frozenset({"message", "bid"})
-#: Events per batch; a mission this far ahead of a batch still being written waits for it,
-#: so "max" speed never outruns the database and an operator waits behind little.
-BATCH_EVENTS = 500
 TICK_S = 0.01
-
-
-@dataclass(eq=False)
-class LiveMission:
-    """A mission being stepped, with its pacing and streaming state."""
-
-    id: int
-    mission: Mission
-    hub: Hub
-    recorder: Recorder
-    speed: float | None  # None: as fast as possible
-    paused: bool
-    chunk: float = 0.5
-    anchor_wall: float = 0.0
-    anchor_sim: float = 0.0
-    finishing: bool = False
-    crashed: str | None = None
-    last_flush: float = 0.0
-    last_frame_t: float = -1.0
-    outbox: list[Event] = field(default_factory=list)
-    dirty_auctions: set[str] = field(default_factory=set)
-    row: Any = None  # the stored record's static fields (detached ORM object)
-    final_status: str | None = None
-    final_task: asyncio.Task[None] | None = None
-    writing: asyncio.Task[None] | None = None  # the latest batch write (they are chained)
-
-    @property
-    def runnable(self) -> bool:
-        """Stepping it now is allowed (not paused or ending, and the store keeps up)."""
-        if self.paused or self.finishing or self.crashed or self.mission.done:
-            return False
-        return self.write_idle or self.recorder.pending < BATCH_EVENTS
-
-    @property
-    def write_idle(self) -> bool:
-        return self.writing is None or self.writing.done()
-
-    @property
-    def status(self) -> str:
-        if self.final_status is not None:
-            return self.final_status
-        if self.mission.done:
-            return str(self.mission.status)
-        return "paused" if self.paused else "running"
-
-    def reanchor(self) -> None:
-        """Start pacing afresh from now (after resume, speed change or falling behind)."""
-        self.anchor_wall = perf_counter()
-        self.anchor_sim = float(self.mission.now)
-
-    def target(self, wall: float, max_lag_s: float) -> float:
-        """Simulation time the mission should have reached at `wall`."""
-        if self.speed is None:
-            return math.inf
-        want = self.anchor_sim + self.speed * (wall - self.anchor_wall)
-        if want - self.mission.now > self.speed * max_lag_s:  # too far behind: drop the debt
-            self.anchor_wall, self.anchor_sim = wall, float(self.mission.now)
-            want = self.anchor_sim
-        return want
-
-    def status_message(self) -> dict[str, Any]:
-        return {
-            "type": "status",
-            "status": self.status,
-            "policy": self.mission.policy,
-            "speed": "max" if self.speed is None else self.speed,
-        }
-
-
-def auction_dict(record: dict[str, Any]) -> dict[str, Any]:
-    """An auction in the one shape every answer carries (REST `AuctionRead`, the stream's
-    `auction` messages, a snapshot's open auctions): the engine's record plus `declines`."""
-    declines = sum(1 for w in record["awards"] if w["outcome"] == "declined")
-    return {**record, "declines": declines}
-
-
-def describe(exc: BaseException) -> str:
-    """An exception as one stored line (its type and the start of its message)."""
-    text = str(exc).splitlines()[0] if str(exc) else ""
-    return f"{type(exc).__name__}: {text}"[:300]
-
-
-def failed_record(changes: dict[str, Any], reason: str) -> dict[str, Any]:
-    """A mission's final record, ended as failed with `reason` (its metrics and last state
-    left out: they are what could not be trusted)."""
-    out = {k: v for k, v in changes.items() if k not in ("metrics", "final_state")}
-    return {**out, "status": "failed", "error": changes.get("error") or reason}
 
 
 def _safe_now(lm: LiveMission) -> float:
@@ -132,13 +42,6 @@ def _safe_now(lm: LiveMission) -> float:
         return float(lm.mission.now)
     except Exception:
         return 0.0
-
-
-def stream_state(state: dict[str, Any] | None) -> dict[str, Any] | None:
-    """A snapshot (live, or stored as a mission's final state) with its auctions so shaped."""
-    if state is None:
-        return None
-    return {**state, "auctions": [auction_dict(a) for a in state["auctions"]]}
 
 
 class MissionRunner:

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 from app.live.gate import Gate
 
 if TYPE_CHECKING:
-    from app.live.runner import LiveMission
+    from app.live.mission import LiveMission
 
 log = logging.getLogger("regolith.stepper")
 _MIN_CHUNK, _MAX_CHUNK = 1e-3, 600.0

@@ -9,7 +9,7 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
-from app.live.runner import LiveMission
+from app.live.mission import LiveMission
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.field_rules import is_field
 from app.services.missions import MissionService

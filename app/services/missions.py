@@ -15,7 +15,9 @@ from typing import Any
 from app.db.models import Mission as MissionRow
 from app.db.models import utcnow
 from app.live.hub import Hub, Viewer, encode
-from app.live.runner import LiveMission, MissionRunner, stream_state
+from app.live.mission import LiveMission
+from app.live.records import stream_state
+from app.live.runner import MissionRunner
 from app.services import queries
 from app.services.admission import Admission, ProcessBudget
 from app.services.errors import Conflict, LimitExceeded, NotFound

@@ -34,7 +34,7 @@ from typing import Any
 
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
-from app.live.runner import auction_dict, stream_state
+from app.live.records import auction_dict, stream_state
 from app.services.cursors import evictions, gap_to_fill, pick
 from app.services.errors import Conflict, Invalid
 from app.services.missions import LiveState, MissionService

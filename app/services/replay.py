@@ -18,7 +18,8 @@ from sqlalchemy.orm import Session
 from app.db.models import Event
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
-from app.live.runner import LiveMission, MissionRunner
+from app.live.mission import LiveMission
+from app.live.runner import MissionRunner
 from app.services.errors import Conflict
 from app.services.recorder import Recorder
 from app.services.store import Store, stored_counts

@@ -1,5 +1,5 @@
 """What `FieldMission` makes of what mission control hears, without agent processes: a
-stand-in fleet whose recorder (the real `field.fleet.Recorder`) is fed by hand.
+stand-in fleet whose recorder (the real `field.intake.Recorder`) is fed by hand.
 
 - An auction record changes in a report of its own, often just after the event naming it;
   the live runner must stream the change, not only the record as it stood at the event.
@@ -19,7 +19,7 @@ from app.live.runner import MissionRunner
 from engine.messages import Heartbeat
 from engine.scenario import Scenario
 from field import control
-from field.fleet import Recorder
+from field.intake import Recorder
 from field.odometer import Odometer, along
 
 
@@ -27,7 +27,7 @@ class StandInFleet:
     """`Fleet`'s surface that `FieldMission` reads, and no processes."""
 
     def __init__(self, scenario: Scenario, seed: int, policy: str, speed: float, **_: Any) -> None:
-        self.recorder = Recorder()
+        self.recorder = Recorder(link=None)  # type: ignore[arg-type]  # (fed by hand)
         finished = SimpleNamespace(triggered=False)
         field = SimpleNamespace(finished=finished, finished_at=None)
         self.world = SimpleNamespace(world=None, field=field, policy=policy, starts={})
