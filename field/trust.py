@@ -277,6 +277,7 @@ class Opener:
         self._anchor = Ed25519PublicKey.from_public_bytes(anchor)
         self._certs: dict[bytes, Certificate] = {}
         self._keys: dict[bytes, Ed25519PublicKey] = {}
+        self._bad: set[bytes] = set()  # certificates that failed: a flood of one costs a lookup
         self._newest: dict[str, int] = {}
         self._seen: dict[tuple[str, int], tuple[int, set[int]]] = {}
         self._lock = threading.Lock()
@@ -323,9 +324,15 @@ class Opener:
             return cert, self._keys[raw]
         if len(raw) <= _SIG:
             raise Rejected("malformed", detail="certificate too short")
+        if raw in self._bad:
+            raise Rejected("stranger", detail="certificate not issued by this mission")
         try:
             self._anchor.verify(raw[:_SIG], b"regolith-cert\0" + raw[_SIG:])
         except InvalidSignature:
+            with self._lock:
+                if len(self._bad) > 4096:
+                    self._bad.clear()
+                self._bad.add(raw)
             raise Rejected("stranger", detail="certificate not issued by this mission") from None
         try:  # signed by the authority: well-formed by construction, checked all the same
             d = json.loads(raw[_SIG:])
