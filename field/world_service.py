@@ -29,7 +29,7 @@ from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.world import World, generate_world
 from field.link import Link
-from field.trust import Certificate
+from field.trust import Certificate, Rejected, Rejections
 from field.wire import event_key, presence_key, world_key
 from field.world_rules import Refused, authorize
 
@@ -128,7 +128,8 @@ class WorldService:
         self.heard: dict[str, float] = {}  # robot -> mission time it was last heard
         self.revealed: dict[str, set[str]] = {}  # robot -> the sites the world showed it
         self.queries = 0
-        self.refused = 0  # requests from members that their asker may not make
+        # requests from members that they may not make, or cannot be carried out
+        self.refusals = Rejections(f"world service {mission}")
         self._lock = threading.Lock()
         self._flush_lock = threading.Lock()
         self._outbox: deque[bytes] = deque()
@@ -168,9 +169,8 @@ class WorldService:
                     self.queries += 1
                     reply = {"ok": True, "value": self.handle(req["op"], args or {}, opened.cert)}
         except (KeyError, TypeError, ValueError, IndexError, OverflowError) as exc:
-            if isinstance(exc, Refused):
-                self.refused += 1
-            log.warning("world query from %s refused: %s", opened.sender, str(exc)[:200])
+            why = "refused" if isinstance(exc, Refused) else "bad request"
+            self.refusals.count(Rejected(why, opened.sender, str(exc)[:200]))
             reply = {"ok": False, "error": str(exc)[:200]}
         self.link.reply(query, req, reply)
         self._flush()
@@ -302,6 +302,10 @@ class WorldService:
             if s.worker == name:
                 s.worker = None
         return n
+
+    @property
+    def refused(self) -> int:
+        return self.refusals.total
 
     def minerals_in(self) -> dict[str, int]:
         """Where every mineral is, read at one instant: they add up to the total."""
