@@ -10,6 +10,8 @@ import csv
 import json
 import logging
 import math
+import os
+import stat
 import time
 from pathlib import Path
 from typing import Any
@@ -103,12 +105,37 @@ SWEEP_FILES = {
 (only these names: nothing else in the folder is reachable)."""
 
 
+def served_file(root: Path, *parts: str) -> Path | None:
+    """`root/parts…` if it is a regular file reached without a symlink, else None.
+
+    A sweep's folder is written by worker processes and may be touched by anyone with a shell
+    on the host: a symlink placed in it must never let an unauthenticated reader fetch a file
+    from elsewhere (the operator token, the database). So every component below `root` is
+    checked with lstat (a symlink, a device or a folder is refused) and the resolved path must
+    still lie inside `root`."""
+    base = root.resolve()
+    path = base
+    for part in parts:
+        if not part or part in (".", "..") or os.sep in part or (os.altsep or os.sep) in part:
+            return None
+        path = path / part
+        try:
+            mode = path.lstat().st_mode
+        except (OSError, ValueError):
+            return None
+        if stat.S_ISLNK(mode):
+            return None
+    if not stat.S_ISREG(mode) or not path.resolve().is_relative_to(base):
+        return None
+    return path
+
+
 def file_links(out_dir: Path, sweep_id: int) -> list[dict[str, str]]:
     """The result files written so far, with the URLs that serve them."""
     return [
         {"name": name, "url": f"/api/sweeps/{sweep_id}/files/{name}", "media_type": media}
         for name, media in SWEEP_FILES.items()
-        if (out_dir / name).is_file()
+        if served_file(out_dir, name) is not None
     ]
 
 

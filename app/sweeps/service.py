@@ -36,6 +36,7 @@ from app.sweeps.files import (
     figure_links,
     file_links,
     read_results,
+    served_file,
     set_aside,
 )
 from app.sweeps.job import SweepJob, halt, progress_fields, work
@@ -282,17 +283,16 @@ class SweepManager:
         await self._row(sweep_id)
         if name not in SWEEP_FILES:
             raise NotFound(f"sweep {sweep_id} has no file {name!r}")
-        path = self.out_dir(sweep_id) / name
-        if not await run_in_threadpool(path.is_file):
+        path = await run_in_threadpool(served_file, self.root, str(sweep_id), name)
+        if path is None:
             raise NotFound(f"sweep {sweep_id} has no {name} yet")
         return path
 
     async def figure(self, sweep_id: int, name: str) -> Path:
         """A figure file of the sweep; the name must stay inside its figures folder."""
         await self._row(sweep_id)
-        base = (self.out_dir(sweep_id) / FIG_DIR).resolve()
-        path = (base / name).resolve()
-        if path.parent != base or not await run_in_threadpool(path.is_file):
+        path = await run_in_threadpool(served_file, self.root, str(sweep_id), FIG_DIR, name)
+        if path is None:
             raise NotFound(f"sweep {sweep_id} has no figure {name!r}")
         return path
 
