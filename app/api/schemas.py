@@ -43,7 +43,25 @@ PolicyName = Annotated[  # type: ignore[valid-type]
     _NAMES | _NUMBERS, BeforeValidator(_policy_input), AfterValidator(_policy)
 ]
 PolicyFilter = _NAMES
-Speed = Annotated[float, Field(strict=True, ge=0, le=10_000, allow_inf_nan=False)] | Literal["max"]
+#: the slowest a mission runs (simulated s per wall s): a reference mission then takes about
+#: six hours; below it (1e-300 was accepted) a mission would never visibly move
+MIN_SPEED = 0.1
+
+
+def _speed(value: float) -> float:
+    if 0 < value < MIN_SPEED:
+        raise ValueError(f"must be 0 (pause), at least {MIN_SPEED:g}, or 'max'")
+    return value
+
+
+Speed = (
+    Annotated[
+        float,
+        Field(strict=True, ge=0, le=10_000, allow_inf_nan=False),
+        AfterValidator(_speed),
+    ]
+    | Literal["max"]
+)
 
 
 class _In(BaseModel):
