@@ -48,13 +48,16 @@ def _field_path(loc: Any, body: Any) -> tuple[Any, ...]:
     return tuple(out)
 
 
-def _merged(errors: list[dict[str, Any]]) -> list[tuple[str, str]]:
-    """(field, message) once per field: a union's failures joined with "or" ("Input should be
-    greater than or equal to 0, or 'max'")."""
+def _merged(errors: list[dict[str, Any]], unions: set[str]) -> list[tuple[str, str]]:
+    """(field, message): a union's failures (fields in `unions`) once, joined with "or"
+    ("Input should be greater than or equal to 0, or 'max'"); any other error as it is."""
     by_field: dict[str, list[dict[str, Any]]] = {}
-    for e in errors:
-        by_field.setdefault(_where(e["loc"]), []).append(e)
     out = []
+    for e in errors:
+        if _where(e["loc"]) in unions:
+            by_field.setdefault(_where(e["loc"]), []).append(e)
+        else:
+            out.append((_where(e["loc"]), e["msg"]))
     for where, group in by_field.items():
         # a check of our own (a ValueError) already says what the field takes: it alone
         own = [e["msg"].removeprefix("Value error, ") for e in group if e["type"] == "value_error"]
@@ -68,9 +71,13 @@ async def _validation(_: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     errors = jsonable_encoder(exc.errors(), exclude={"input", "ctx", "url"})
     body = getattr(exc, "body", None)
+    unions = set()
     for e in errors:
-        e["loc"] = list(_field_path(e["loc"], body))
-    message = "; ".join(f"{where}: {msg}" for where, msg in _merged(errors))
+        path = list(_field_path(e["loc"], body))
+        if path != list(e["loc"]):
+            unions.add(_where(path))
+        e["loc"] = path
+    message = "; ".join(f"{where}: {msg}" for where, msg in _merged(errors, unions))
     return JSONResponse({"detail": errors, "message": message}, status_code=422)
 
 
