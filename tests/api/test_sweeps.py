@@ -4,6 +4,7 @@ a small scenario (each run ~0.3 s)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -191,6 +192,10 @@ def test_a_symlink_in_the_sweep_folder_is_never_followed(
         assert b"secret-operator-token" not in res.content
     links = {f["name"] for f in viewer.get(f"/api/sweeps/{sid}").json()["files"]}
     assert "report.md" not in links and "summary.json" not in links and "runs.csv" in links
+    # a named pipe is no regular file: refused at once, never a read that blocks
+    (out / "bounds.csv").unlink(missing_ok=True)
+    os.mkfifo(out / "bounds.csv")
+    assert viewer.get(f"/api/sweeps/{sid}/files/bounds.csv").status_code == 404
     # a linked figures folder is refused as a whole
     (out / "figures").rename(out / "figures.real")
     (out / "figures").symlink_to(out / "figures.real")
