@@ -5,8 +5,10 @@ marks the other's missions interrupted at start, both checkpoint the WAL and wri
 sweep folders. So a server (and `regolith db upgrade`) takes this lock first and holds it for
 its lifetime; the kernel drops it when the process ends, however it ends (kill -9 included),
 so a stale lock file never blocks a restart. The lock is on the data folder whatever the
-database (the folder also holds the token and the sweeps); a SQLite file outside the folder
-is locked too, through a `<file>.lock` beside it.
+database (the folder also holds the token and the sweeps), and the lock follows the database
+too: a SQLite file is always locked through a `<file>.lock` beside it, wherever it lies, so a
+second server with another `--data-dir` whose `--db` names the first one's file is refused.
+(A PostgreSQL database is locked in the database itself: app/db/serverlock.py.)
 """
 
 from __future__ import annotations
@@ -64,11 +66,10 @@ class DataLock:
 
 
 def lock_paths(data_dir: Path, sqlite_file: Path | None) -> list[Path]:
-    """The data folder's lock, and one beside a SQLite file kept elsewhere."""
-    folder = data_dir.resolve()
-    paths = [folder / LOCK_NAME]
-    if sqlite_file is not None and sqlite_file.resolve().parent != folder:
-        db = sqlite_file.resolve()
+    """The data folder's lock, and the SQLite file's (beside it, in the folder or not)."""
+    paths = [data_dir.resolve() / LOCK_NAME]
+    if sqlite_file is not None:
+        db = sqlite_file.resolve()  # a symlinked path or a relative one: the same lock
         paths.append(db.with_name(db.name + ".lock"))
     return paths
 

@@ -87,7 +87,7 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
                 sweeps=sweeps,
                 token=token,
                 limiter=RateLimiter(settings.rate_limit_per_s, settings.rate_limit_burst),
-                metrics=metrics_registry(runner, store),
+                metrics=metrics_registry(runner, store, playback),
             )
             yield
 

@@ -18,6 +18,7 @@ from prometheus_client.registry import Collector
 from app.live.hub import STATS
 from app.live.runner import MissionRunner
 from app.services.field_rules import dropped_of
+from app.services.playback import Playback
 from app.services.store import Store
 
 CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
@@ -33,9 +34,10 @@ def _q(values: list[float], q: float) -> float:
 class RegolithCollector(Collector):
     """Gauges and counters of the whole server, read at scrape time."""
 
-    def __init__(self, runner: MissionRunner, store: Store) -> None:
+    def __init__(self, runner: MissionRunner, store: Store, playback: Playback | None) -> None:
         self.runner = runner
         self.store = store
+        self.playback = playback
 
     def collect(self) -> Iterator[Metric]:
         runner, store = self.runner, self.store
@@ -124,12 +126,50 @@ class RegolithCollector(Collector):
             "regolith_db_write_seconds_max", "Longest write transaction.", store.write_max
         )
         yield GaugeMetricFamily("regolith_db_write_queue", "Writes waiting.", store.queued)
+        yield from self._playback()
+
+    def _playback(self) -> Iterator[Metric]:
+        pb = self.playback
+        if pb is not None:
+            yield GaugeMetricFamily(
+                "regolith_playback_engines",
+                "Replay engines open: parked, or working for a request or a checkpoint.",
+                pb.built - pb.closed,
+            )
+            yield GaugeMetricFamily(
+                "regolith_playback_checkpoint_builds",
+                "Missions whose playback checkpoints are being built now.",
+                pb.fills,
+            )
+            yield CounterMetricFamily(
+                "regolith_playback_engines_built", "Replay engines started from zero.", pb.built
+            )
+            yield CounterMetricFamily(
+                "regolith_playback_engines_closed", "Replay engines closed.", pb.closed
+            )
+        yield CounterMetricFamily(
+            "regolith_gc_full_collections",
+            "Full garbage collections run while missions were live (dropped engines' cycles).",
+            self.runner.gc_pause.full,
+        )
+        yield CounterMetricFamily(
+            "regolith_gc_full_collection_seconds",
+            "Time spent in those full collections (the event loop waits meanwhile).",
+            self.runner.gc_pause.full_seconds,
+        )
+        yield GaugeMetricFamily(
+            "regolith_gc_engines_pending",
+            "Dropped replay engines whose memory awaits a full collection (within seconds).",
+            self.runner.gc_pause.pending,
+        )
 
 
-def metrics_registry(runner: MissionRunner, store: Store) -> CollectorRegistry:
+def metrics_registry(
+    runner: MissionRunner, store: Store, playback: Playback | None = None
+) -> CollectorRegistry:
     """A registry of this app's own holding its one collector."""
     registry = CollectorRegistry(auto_describe=False)
-    registry.register(RegolithCollector(runner, store))
+    registry.register(RegolithCollector(runner, store, playback))
     return registry
 
 

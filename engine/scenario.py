@@ -239,7 +239,9 @@ class Scenario(_Model):
             },
             craters=[{"x": c.x * s, "y": c.y * s, "r": c.r} for c in self.craters],
             random_craters=self.random_craters * k,
-            name=f"{self.name}x{k}",
+            # "reference-x10": readable, and safe in a file name or a shell word; the base is
+            # cut to keep the name within its 80 characters
+            name=f"{self.name[: 80 - len(f'-x{k}')]}-x{k}",
         )
         if self.energy.chargers:
             data["energy"]["chargers"] = [(x * s, y * s) for x, y in self.energy.chargers]
@@ -298,7 +300,10 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ScenarioError(f"scenario file {p}: not valid {p.suffix[1:].upper()}: {exc}") from None
     if not isinstance(data, dict):
         raise ScenarioError(f"scenario file {p}: must hold a table/object at the top level")
-    return parse_scenario(data)
+    try:
+        return parse_scenario(data)
+    except ScenarioError as exc:  # a bad value: say which file holds it, as for bad syntax
+        raise ScenarioError(f"scenario file {p}: {exc}") from None
 
 
 RobotType = Literal["scout", "excavator", "hauler"]

@@ -9,6 +9,7 @@ Print resolution: PNG at 300 dpi (pHYs says so), text at least 8 pt at the saved
 from __future__ import annotations
 
 import re
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -110,7 +111,7 @@ def build_figure(
     for ax, panel in zip(axes, spec.panels, strict=True):
         ylabel = f"{spec.quantity} ({spec.unit})"
         _panel(ax, data[panel.column], panel.title if n > 1 else "", ylabel)
-    fig.suptitle(spec.title, fontsize=TITLE_PT)
+    _suptitle(fig, spec.title)
     return fig
 
 
@@ -185,8 +186,18 @@ def build_paired_figure(
     ax.set_ylabel(f"{quantity}: policy − {reference} ({unit})", fontsize=LABEL_PT)
     ax.tick_params(labelsize=TICK_PT)
     ax.grid(axis="y", alpha=0.3)
-    fig.suptitle(title, fontsize=TITLE_PT)
+    _suptitle(fig, title)
     return fig
+
+
+def _suptitle(fig: Figure, title: str) -> None:
+    """The title, wrapped to the figure's width: constrained layout makes room above the axes
+    for a tall title but never narrows a wide one, which was cut at both sides (and took the
+    right frame's place: "Makespan / per-run lower bound (1 = optimal …)" on a one-panel
+    figure). A character is taken as 0.6 em, wider than the average of the default font."""
+    per_line = max(20, int(fig.get_figwidth() * 72 / (0.6 * TITLE_PT)) - 2)
+    lines = [textwrap.fill(line, per_line) for line in title.splitlines()]
+    fig.suptitle("\n".join(lines), fontsize=TITLE_PT)
 
 
 def _dots(ax: Axes, xs: np.ndarray, ys: np.ndarray, color: str) -> None:

@@ -16,7 +16,7 @@ from experiments.figures import (
     save,
 )
 from experiments.journal import write_atomic
-from experiments.report import fmt_num, fmt_p, render_report, verdict
+from experiments.report import fmt_num, fmt_p, render_report, seeds_phrase, verdict
 from experiments.spec import SweepSpec
 from experiments.stats import paired_diffs
 from experiments.summary import build_summary, completed_rows, groups_by_policy
@@ -113,6 +113,9 @@ def paired_figure(
         lo, hi = c["paired_ci95"]
         ci = (None, None) if lo is None else tuple(sorted((sign * lo, sign * hi)))
         lower = c["b_lower"] if sign == 1 else c["a_lower"]  # seeds where best is lower
+        other_lower = c["a_lower"] if sign == 1 else c["b_lower"]
+        tie = lower == other_lower == 0  # equal on every seed
+        split = seeds_phrase(best.short, lower, other_lower, c["n_pairs"])
         p_adj = fmt_p(c["paired_t_p_adj"], "adj")
         diffs = paired_diffs(groups[other.name], groups[best.name])
         comps.append(
@@ -120,16 +123,25 @@ def paired_figure(
                 other.label,
                 list(diffs),
                 ci,
-                f"{p_adj}\n{best.short} lower {lower}/{c['n_pairs']}",
+                f"{p_adj}\n"
+                + (
+                    f"equal {c['n_pairs']}/{c['n_pairs']}"
+                    if tie
+                    else f"{best.short} lower {lower}/{c['n_pairs']}"
+                ),
                 spec.policies.index(other),
             )
         )
         mean = c["paired_mean_diff"]
         word = "higher" if (mean or 0) * sign > 0 else "lower"
         span = "" if ci[0] is None else f" (95% CI {fmt_num(ci[0])} to {fmt_num(ci[1])})"
+        differs = (
+            f"{split}"
+            if tie
+            else f"{fmt_num(abs(sign * mean))} {fs.unit} {word} on average per seed{span}; {split}"
+        )
         sentences.append(
-            f"{other.label} − {best.label}: {fmt_num(abs(sign * mean))} {fs.unit} {word} on "
-            f"average per seed{span}; {best.short} lower on {lower} of {c['n_pairs']} seeds; "
+            f"{other.label} − {best.label}: {differs}; "
             f"paired t {p_adj}, Wilcoxon {fmt_p(c['wilcoxon_p_adj'], 'adj')} (Holm-adjusted "
             "over the verdict family)."
         )

@@ -38,7 +38,17 @@ def fmt_num(x: float | None, digits: int | None = None) -> str:
         return "–"
     if digits is None:
         digits = 2 if abs(x) < 10 else 1
-    return f"{x:,.{digits}f}" if abs(x) < 1e6 else f"{x:.3g}"
+    text = f"{x:,.{digits}f}" if abs(x) < 1e6 else f"{x:.3g}"
+    return text[1:] if text.startswith("-") and not text.strip("-0.,") else text  # no "-0.0"
+
+
+def seeds_phrase(best: str, lower: int, other_lower: int, n: int) -> str:
+    """How the seeds split between the best policy and another: "P1 lower on 3 of 5 seeds
+    (equal on 1)", or, when every seed is equal, "an exact tie: equal on 5 of 5 seeds"."""
+    equal = n - lower - other_lower
+    if equal == n:
+        return f"an exact tie: equal on {n} of {n} seeds"
+    return f"{best} lower on {lower} of {n} seeds" + (f" (equal on {equal})" if equal else "")
 
 
 def _pair(pairs: list[dict[str, Any]], a: str, b: str) -> tuple[dict[str, Any], int] | None:
@@ -97,10 +107,15 @@ def panel_verdict(
             ci = c["paired_ci95"]
             lo, hi = sorted(-sign * v for v in ci) if None not in ci else (None, None)
             lower = c["a_lower"] if sign == 1 else c["b_lower"]
-            diff = _signed(-sign * c["paired_mean_diff"], digits)
-            eff = f", per-seed {other.short}−{best.short} {diff} {unit}"
-            eff += "" if lo is None or hi is None else f" ({_ci(lo, hi, digits)})"
-            eff += f", {best.short} lower on {lower} of {c['n_pairs']} seeds"
+            other_lower = c["b_lower"] if sign == 1 else c["a_lower"]
+            n = c["n_pairs"]
+            if lower == other_lower == 0:  # every seed equal: no difference or interval to give
+                eff = f", {other.short} and {best.short} {seeds_phrase('', 0, 0, n)}"
+            else:
+                diff = _signed(-sign * c["paired_mean_diff"], digits)
+                eff = f", per-seed {other.short}−{best.short} {diff} {unit}"
+                eff += "" if lo is None or hi is None else f" ({_ci(lo, hi, digits)})"
+                eff += f", {seeds_phrase(best.short, lower, other_lower, n)}"
         else:
             eff = "" if c["cohen_d"] is None else f", d={sign * c['cohen_d']:.2f}"
         note = ""
@@ -128,7 +143,8 @@ def panel_verdict(
 
 
 def _signed(x: float, digits: int) -> str:
-    return ("+" if x > 0 else "") + fmt_num(x, digits)
+    text = fmt_num(x, digits)
+    return ("+" if x > 0 and text.strip("0.,") else "") + text
 
 
 def _ci(lo: float, hi: float, digits: int) -> str:

@@ -268,6 +268,9 @@ class Fleet:
         self.close()
 
 
+PROGRESS_S = 0.2
+
+
 def run_fleet(
     scenario: Scenario,
     seed: int,
@@ -277,8 +280,10 @@ def run_fleet(
     adds: list[tuple[str, float]] = (),  # type: ignore[assignment]
     restarts: list[tuple[str, float]] = (),  # type: ignore[assignment]
     wall_limit_s: float | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
 ) -> dict[str, Any]:
-    """Run one field mission end to end on this machine and return its figures."""
+    """Run one field mission end to end on this machine and return its figures;
+    `progress(world status)` is called about every `PROGRESS_S` of wall time meanwhile."""
     t_wall = time.monotonic()
     plan = sorted(
         [(t, "kill", n) for n, t in kills]
@@ -290,6 +295,7 @@ def run_fleet(
         fleet.up()
         actions: list[dict[str, Any]] = []
         status = "timeout"
+        shown = -PROGRESS_S
         while time.monotonic() - t_wall < limit:
             now = fleet.now()
             while plan and plan[0][0] <= now:
@@ -304,6 +310,9 @@ def run_fleet(
             if fleet.world.field.finished.triggered:
                 status = "completed"
                 break
+            if progress is not None and time.monotonic() - shown >= PROGRESS_S:
+                shown = time.monotonic()
+                progress(fleet.world.status())
             time.sleep(0.02)
         st = fleet.world.status()
         rec = fleet.recorder

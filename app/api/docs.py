@@ -15,6 +15,7 @@ import hashlib
 import re
 from importlib.resources import files
 from pathlib import Path
+from typing import Any
 
 from fastapi import FastAPI
 from fastapi.openapi.docs import (
@@ -99,3 +100,36 @@ def install(app: FastAPI) -> None:
     @app.get(REDOC_URL, include_in_schema=False)
     async def redoc_page() -> HTMLResponse:
         return redoc.response()
+
+    _publish_examples(app)
+
+
+def _publish_examples(app: FastAPI) -> None:
+    """Each request model's `examples` (its JSON Schema, `app/api/schemas.py`) also as the
+    request body's OpenAPI examples, which Swagger UI's "Try it out" fills in and ReDoc
+    shows; without them Swagger UI makes a body up from the schema (`"plant": [null, null]`,
+    a crater at -1e7) that the API refuses."""
+    build = app.openapi
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema is None:
+            spec = build()
+            models = spec.get("components", {}).get("schemas", {})
+            for ops in spec.get("paths", {}).values():
+                for op in ops.values():
+                    media = op.get("requestBody", {}).get("content", {}).get("application/json")
+                    if media is None or "examples" in media:
+                        continue
+                    schema = media.get("schema", {})
+                    for option in schema.get("anyOf", [schema]):
+                        found = models.get(option.get("$ref", "").rsplit("/", 1)[-1], {})
+                        if found.get("examples"):
+                            media["examples"] = {
+                                f"example {i + 1}": {"value": ex}
+                                for i, ex in enumerate(found["examples"])
+                            }
+                            break
+            app.openapi_schema = spec
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]

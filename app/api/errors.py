@@ -26,6 +26,54 @@ def _is_json(content_type: str) -> bool:
     )
 
 
+def _field_path(loc: Any, body: Any) -> tuple[Any, ...]:
+    """The error's location with pydantic's union-member tags left out.
+
+    A field that takes two types (`speed`: a number or "max") fails once per member, each
+    located under the member's tag (`body.speed.constrained-float`, `body.speed.literal['max']`):
+    validator names, not fields. So the location is walked through the request's own body:
+    a key or index found there is a field, and so is the last part (a missing field); any
+    other part is a tag. Query and path parameters keep their name only. An error a route
+    raises itself (no body attached) is located already and kept as it is."""
+    loc = tuple(loc)
+    if body is None:  # raised by a route of its own (a scenario file's), located already
+        return loc
+    if not loc or loc[0] != "body":
+        return tuple(p for i, p in enumerate(loc) if i < 2 or isinstance(p, int))
+    out: list[Any] = [loc[0]]
+    node = body
+    for i, part in enumerate(loc[1:], start=1):
+        in_dict = isinstance(node, dict) and isinstance(part, str)
+        in_list = isinstance(node, list) and isinstance(part, int)
+        if (in_dict and part in node) or (in_list and 0 <= part < len(node)):
+            node = node[part]
+        elif i == len(loc) - 1 and (in_dict or in_list):
+            pass  # a missing field or item
+        else:
+            continue  # a union member's tag
+        out.append(part)
+    return tuple(out)
+
+
+def _merged(errors: list[dict[str, Any]], unions: set[str]) -> list[tuple[str, str]]:
+    """(field, message): a union's failures (fields in `unions`) once, joined with "or"
+    ("Input should be greater than or equal to 0, or 'max'"); any other error as it is."""
+    by_field: dict[str, list[dict[str, Any]]] = {}
+    out = []
+    for e in errors:
+        if _where(e["loc"]) in unions:
+            by_field.setdefault(_where(e["loc"]), []).append(e)
+        else:
+            out.append((_where(e["loc"]), e["msg"]))
+    for where, group in by_field.items():
+        # a check of our own (a ValueError) already says what the field takes: it alone
+        own = [e["msg"].removeprefix("Value error, ") for e in group if e["type"] == "value_error"]
+        msgs = list(dict.fromkeys(own or [e["msg"] for e in group]))
+        rest = [m.removeprefix("Input should be ") for m in msgs[1:]]
+        out.append((where, ", or ".join([msgs[0], *rest])))
+    return out
+
+
 async def _validation(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     errors = jsonable_encoder(exc.errors(), exclude={"input", "ctx", "url"})
@@ -37,7 +85,14 @@ async def _validation(request: Request, exc: Exception) -> JSONResponse:
         for e in errors:
             if tuple(e["loc"]) == ("body",):
                 e["msg"] = why
-    message = "; ".join(f"{_where(e['loc'])}: {e['msg']}" for e in errors)
+    body = getattr(exc, "body", None)
+    unions = set()
+    for e in errors:
+        path = list(_field_path(e["loc"], body))
+        if path != list(e["loc"]):
+            unions.add(_where(path))
+        e["loc"] = path
+    message = "; ".join(f"{where}: {msg}" for where, msg in _merged(errors, unions))
     return JSONResponse({"detail": errors, "message": message}, status_code=422)
 
 

@@ -43,7 +43,25 @@ PolicyName = Annotated[  # type: ignore[valid-type]
     _NAMES | _NUMBERS, BeforeValidator(_policy_input), AfterValidator(_policy)
 ]
 PolicyFilter = _NAMES
-Speed = Annotated[float, Field(strict=True, ge=0, le=10_000, allow_inf_nan=False)] | Literal["max"]
+#: the slowest a mission runs (simulated s per wall s): a reference mission then takes about
+#: six hours; below it (1e-300 was accepted) a mission would never visibly move
+MIN_SPEED = 0.1
+
+
+def _speed(value: float) -> float:
+    if 0 < value < MIN_SPEED:
+        raise ValueError(f"must be 0 (pause), at least {MIN_SPEED:g}, or 'max'")
+    return value
+
+
+Speed = (
+    Annotated[
+        float,
+        Field(strict=True, ge=0, le=10_000, allow_inf_nan=False),
+        AfterValidator(_speed),
+    ]
+    | Literal["max"]
+)
 
 
 class _In(BaseModel):
@@ -53,6 +71,32 @@ class _In(BaseModel):
 class MissionCreate(_In):
     """A new live mission. `planner`: "ompl" (RRT-Connect, the study's), "exact" (shortest
     paths over the craters' tangent graph) or "straight" (obstacle-free tests only)."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "examples": [
+                {"policy": "fcfs", "seed": 0, "speed": 10},
+                {
+                    "policy": "coalition",
+                    "seed": 7,
+                    "speed": "max",
+                    "planner": "exact",
+                    "scenario": {
+                        "name": "small-field",
+                        "width": 60.0,
+                        "height": 60.0,
+                        "plant": [30.0, 30.0],
+                        "sites": 6,
+                        "minerals": 24,
+                        "team": {"scouts": 2, "excavators": 2, "haulers": 3},
+                        "craters": [{"x": 12.0, "y": 45.0, "r": 4.0}],
+                        "random_craters": 2,
+                    },
+                },
+            ]
+        },
+    )
 
     policy: PolicyName = "fcfs"
     seed: Seed = 0
@@ -68,20 +112,40 @@ class MissionCreate(_In):
 class SpeedUpdate(_In):
     """0 pauses (the mission keeps its previous speed for resume); "max" runs flat out."""
 
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={"examples": [{"speed": 20}, {"speed": "max"}, {"speed": 0}]},
+    )
+
     speed: Speed
 
 
 class PolicyUpdate(_In):
+    model_config = ConfigDict(
+        extra="forbid", json_schema_extra={"examples": [{"policy": "coalition"}, {"policy": 2}]}
+    )
+
     policy: PolicyName
 
 
 class RobotDisable(_In):
     """graceful: finishes nothing new and hands its work back; abrupt: stops where it is."""
 
+    model_config = ConfigDict(
+        extra="forbid", json_schema_extra={"examples": [{"mode": "graceful"}]}
+    )
+
     mode: Literal["graceful", "abrupt"] = "graceful"
 
 
 class RobotCreate(_In):
+    """A robot joining the mission, at `position` (inside the area) or beside the plant."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={"examples": [{"type": "hauler", "position": [50.0, 47.0]}]},
+    )
+
     type: RobotType
     position: Point | None = None
 
@@ -89,12 +153,30 @@ class RobotCreate(_In):
 class TaskCreate(_In):
     """An operator-initiated auction at `location`, with the operator as auctioneer."""
 
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={"examples": [{"type": "excavate", "location": [60.0, 60.0]}]},
+    )
+
     type: TaskType = "excavate"
     location: Point
 
 
 class ScenarioFile(_In):
     """A scenario file's text as uploaded (`POST /api/scenarios/parse`)."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "examples": [
+                {
+                    "text": 'name = "small"\nwidth = 60.0\nheight = 60.0\nsites = 6\n',
+                    "format": "toml",
+                },
+                {"text": '{"name": "small", "width": 60.0, "height": 60.0}', "format": "json"},
+            ]
+        },
+    )
 
     text: str
     format: Literal["toml", "json"] = "toml"

@@ -17,6 +17,7 @@ from typing import Annotated, Any
 import typer
 
 from app.cli.errors import fail
+from app.cli.progress import ProgressLine
 from engine.policies import POLICIES, resolve_policy
 from engine.scenario import ROBOT_TYPES, ScenarioError, load_scenario, reference_scenario
 
@@ -34,19 +35,30 @@ def _at(option: str, values: list[str], kind: str) -> list[tuple[str, float]]:
 
 
 def agent(
-    name: Annotated[str, typer.Option(help="This robot's name: scout-N, excavator-N, hauler-N")],
-    mission: Annotated[str, typer.Option(help="The mission's id (its key space)")],
-    connect: Annotated[str, typer.Option(help="Zenoh endpoint, e.g. tcp/10.0.0.5:7447")],
+    name: Annotated[
+        str,
+        typer.Option(metavar="NAME", help="This robot's name: scout-N, excavator-N, hauler-N"),
+    ],
+    mission: Annotated[str, typer.Option(metavar="ID", help="The mission's id (its key space)")],
+    connect: Annotated[
+        str, typer.Option(metavar="ENDPOINT", help="Zenoh endpoint, e.g. tcp/10.0.0.5:7447")
+    ],
     credentials: Annotated[
         str,
-        typer.Option(help="This robot's credential file from mission control ('-': stdin)"),
+        typer.Option(
+            metavar="FILE", help="This robot's credential file from mission control ('-': stdin)"
+        ),
     ],
     speed: Annotated[
-        float | None, typer.Option(help="Check: the mission's speed factor K", min=0.001)
+        float | None,
+        typer.Option(metavar="K", help="Check: the mission's speed factor K", min=0.001),
     ] = None,
-    listen: Annotated[str | None, typer.Option(help="Also listen on this endpoint")] = None,
+    listen: Annotated[
+        str | None, typer.Option(metavar="ENDPOINT", help="Also listen on this endpoint")
+    ] = None,
     stall: Annotated[
-        str | None, typer.Option(help="Fault injection: stop FOR s every ~EVERY s (FOR@EVERY)")
+        str | None,
+        typer.Option(metavar="FOR@EVERY", help="Fault injection: stop FOR s every ~EVERY s"),
     ] = None,
 ) -> None:
     """Run one robot as this process, talking only over Zenoh."""
@@ -89,16 +101,36 @@ def _scenario(path: Path | None) -> Any:
 
 
 def fleet_run(
-    policy: Annotated[str, typer.Option(help="Policy number or name")],
-    seed: Annotated[int, typer.Option(min=0)] = 0,
-    scenario: Annotated[Path | None, typer.Option(help="Scenario file; default: reference")] = None,
-    speed: Annotated[float, typer.Option(help="Simulated seconds per wall second", min=1)] = 20.0,
-    kill: Annotated[list[str], typer.Option(help="SIGKILL an agent at T s: NAME@T")] = [],  # noqa: B006
-    add: Annotated[list[str], typer.Option(help="Start a new TYPE agent at T s")] = [],  # noqa: B006
-    restart: Annotated[list[str], typer.Option(help="Start NAME again at T s")] = [],  # noqa: B006
+    policy: Annotated[
+        str, typer.Option(metavar="POLICY", help="Policy number or name (decentralized)")
+    ],
+    seed: Annotated[
+        int, typer.Option(metavar="N", min=0, help="Seed of the world and every random draw")
+    ] = 0,
+    scenario: Annotated[
+        Path | None,
+        typer.Option(metavar="FILE", help="Scenario file (.toml or .json); default: reference"),
+    ] = None,
+    speed: Annotated[
+        float, typer.Option(metavar="K", help="Simulated seconds per wall second", min=1)
+    ] = 20.0,
+    kill: Annotated[
+        list[str], typer.Option(metavar="NAME@T", help="SIGKILL an agent at T s; repeat")
+    ] = [],  # noqa: B006
+    add: Annotated[
+        list[str],
+        typer.Option(metavar="TYPE@T", help="Start a new scout|excavator|hauler at T s; repeat"),
+    ] = [],  # noqa: B006
+    restart: Annotated[
+        list[str], typer.Option(metavar="NAME@T", help="Start NAME again at T s; repeat")
+    ] = [],  # noqa: B006
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
 ) -> None:
-    """Run one field mission end to end: world service, one process per robot, the faults."""
+    """Run one field mission end to end: world service, one process per robot, the faults.
+
+    Prints a summary (or, with --json, one JSON object, the auctions included). Exit code 0
+    when the mission completed, 1 otherwise, 2 for a bad argument. On a terminal, stderr
+    shows the progress (simulated time, minerals, sites) while it runs."""
     from field.fleet import run_fleet
 
     _exit_on_sigterm()
@@ -113,6 +145,14 @@ def fleet_run(
         if rtype not in ROBOT_TYPES:
             fail("fleet run", f"--add: {rtype!r} must be one of {', '.join(ROBOT_TYPES)}")
     scen = _scenario(scenario)
+    line = ProgressLine(sys.stderr, every_s=0) if sys.stderr.isatty() and not as_json else None
+
+    def show(st: dict[str, Any]) -> None:
+        if line is not None:
+            line.write(
+                st["t"], st["delivered"], st["minerals_total"], st["sites_found"], st["sites_total"]
+            )
+
     try:
         out = run_fleet(
             scen,
@@ -122,28 +162,70 @@ def fleet_run(
             _at("--kill", kill, "NAME"),
             adds,
             _at("--restart", restart, "NAME"),
+            progress=show,
         )
     except ValueError as exc:
         fail("fleet run", str(exc))
-    if not as_json:
-        out.pop("auction_records", None)
-    typer.echo(json.dumps(out) if as_json else json.dumps(out, indent=1))
+    finally:
+        if line is not None:
+            line.clear()
+    typer.echo(json.dumps(out) if as_json else fleet_summary(out))
     if not out["completed"]:
         raise typer.Exit(1)
 
 
+def fleet_summary(m: dict[str, Any]) -> str:
+    """A field run's figures for a person, in `regolith run`'s layout."""
+    ms = m["makespan_s"]
+    procs = m.get("processes", [])
+    killed = sum(1 for p in procs if p.get("killed_at") is not None)
+    tr = m.get("transport", {})
+    lines = [
+        f"policy {m['policy']}, seed {m['seed']}, scenario {m['scenario']}, field mode at "
+        f"{tr.get('speed', 0):g}x: {m['status']}",
+        f"  makespan        {ms:.1f} s" if ms is not None else "  makespan        -",
+        f"  simulated time  {m['sim_time_s']:.1f} s",
+        f"  sites found     {m['sites_found']}/{m['sites_total']}",
+        f"  minerals        {m['minerals_delivered']}/{m['minerals_total']} delivered",
+        f"  auctions {m['auctions']}, bids {m['bids']}, re-auctions {m['reauctions']}, "
+        f"re-announcements {m['reannouncements']}",
+        f"  messages        {m['messages']} over Zenoh ({tr.get('malformed', 0)} malformed)",
+        f"  processes       {len(procs)} agents started, {killed} killed",
+    ]
+    for a in m.get("actions", []):
+        lines.append(f"  at {a['t']:8.1f} s   {a['kind']} {a['robot']}")
+    lines.append(f"  wall time       {m['wall_s']:.1f} s")
+    return "\n".join(lines)
+
+
 def fleet_up(
-    policy: Annotated[str, typer.Option(help="Policy number or name")] = "nearest",
-    seed: Annotated[int, typer.Option(min=0)] = 0,
-    scenario: Annotated[Path | None, typer.Option(help="Scenario file; default: reference")] = None,
-    speed: Annotated[float, typer.Option(min=1)] = 20.0,
-    port: Annotated[int, typer.Option(help="The endpoint's TCP port", min=1, max=65535)] = 7447,
-    host: Annotated[str, typer.Option(help="The address to listen on")] = "127.0.0.1",
+    policy: Annotated[
+        str, typer.Option(metavar="POLICY", help="Policy number or name (decentralized)")
+    ] = "nearest",
+    seed: Annotated[
+        int, typer.Option(metavar="N", min=0, help="Seed of the world and every random draw")
+    ] = 0,
+    scenario: Annotated[
+        Path | None,
+        typer.Option(metavar="FILE", help="Scenario file (.toml or .json); default: reference"),
+    ] = None,
+    speed: Annotated[
+        float, typer.Option(metavar="K", min=1, help="Simulated seconds per wall second")
+    ] = 20.0,
+    port: Annotated[
+        int, typer.Option(metavar="PORT", help="The endpoint's TCP port", min=1, max=65535)
+    ] = 7447,
+    host: Annotated[
+        str, typer.Option(metavar="HOST", help="The address to listen on")
+    ] = "127.0.0.1",
     issue: Annotated[
-        list[str], typer.Option(help="Write a credential for a robot elsewhere: NAME")
+        list[str],
+        typer.Option(
+            metavar="NAME", help="Write a credential for a robot that joins from elsewhere"
+        ),
     ] = [],  # noqa: B006
     credentials_dir: Annotated[
-        Path, typer.Option(help="Where --issue writes NAME.cred (mode 0600)")
+        Path, typer.Option(metavar="DIR", help="Where --issue writes NAME.cred (mode 0600)")
     ] = Path("credentials"),
 ) -> None:
     """Start the world service and one agent per robot here, until the mission completes."""

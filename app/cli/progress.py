@@ -1,4 +1,5 @@
-"""`regolith run`'s progress line: simulated time, minerals and sites, in place on a terminal.
+"""`regolith run`'s and `regolith fleet run`'s progress line: simulated time, minerals and
+sites, in place on a terminal.
 
 A long mission (a lossy bus, a large scale) can take minutes; on a terminal stderr shows
 where it is, rewritten at most `every_s` of wall time apart and erased at the end. Nothing is
@@ -36,16 +37,35 @@ class ProgressLine:
         self._last = -float("inf")
 
     def show(self, m: Mission, force: bool = False) -> None:
+        if force or self.due():
+            c = m.counters()
+            self.write(
+                m.now,
+                c["minerals_delivered"],
+                c["minerals_total"],
+                c["sites_found"],
+                c["sites_total"],
+            )
+
+    def due(self) -> bool:
+        """True (and the clock restarted) when the line may be rewritten."""
         now = time.monotonic()
-        if not force and now - self._last < self.every_s:
-            return
+        if now - self._last < self.every_s:
+            return False
         self._last = now
-        c = m.counters()
+        return True
+
+    def write(
+        self, t: float, minerals: int, minerals_total: int, sites: int, sites_total: int
+    ) -> None:
+        """What is known, and only that: the simulated time reached (the end is not known
+        before the last delivery: the scenario's `max_time_s` is a timeout cap, not an
+        estimate), minerals and sites against their totals, and the wall time so far."""
         line = (
-            f"t {m.now:,.0f} of {m.scenario.max_time_s:,.0f} s simulated"
-            f" | minerals {c['minerals_delivered']}/{c['minerals_total']}"
-            f" | sites {c['sites_found']}/{c['sites_total']}"
-            f" | {_clock(now - self._start)} elapsed"
+            f"t {t:,.0f} s simulated"
+            f" | minerals {minerals}/{minerals_total}"
+            f" | sites {sites}/{sites_total}"
+            f" | {_clock(time.monotonic() - self._start)} elapsed"
         )
         self.out.write(f"\r{line}\x1b[K")
         self.out.flush()

@@ -15,6 +15,10 @@ builds *checkpoints* for that mission in the background, at the middle of the wi
 of its timeline no cursor covers, until no stretch is wider than the timeline divided by the
 per-mission limit less one (a quarter, by default): a scrub anywhere then replays at most that
 much, and a scrub that carries a checkpoint away leaves room for it to be rebuilt.
+Checkpoints go only into free room and within the mission's share of the pool (`share`), so
+they never evict a cursor: many missions' builders once evicted one another's checkpoints and
+rebuilt them for ever. An engine closed here is reported to the collector (`GcPause.dropped`):
+while a mission is live the heap is frozen and only a full collection frees its cycles.
 
 Replay work runs on a worker thread in short slices, each taking the engine gate the way the
 stepping thread does (after anyone on the event loop), so live missions keep stepping and the
@@ -50,6 +54,8 @@ _SLICE_S = 0.005
 #: engines beyond the pool's bound; checkpoints are built one at a time, apart from them.
 WORKERS = 2
 _YIELD_S = 0.002
+#: the playhead and one checkpoint: what a mission may fill up to whatever its share
+MIN_SHARE = 3
 _EPS = 1e-9
 
 
@@ -102,7 +108,10 @@ class Playback:
         self._workers = asyncio.Semaphore(WORKERS)
         self._filler = asyncio.Semaphore(1)
         self._asking = 0  # requests waiting or replaying: checkpoint building pauses for them
+        self._out = 0  # cursors checked out by requests (they come back to the pool)
         self.built = 0  # cursors started from zero (for tests and the bench)
+        self.closed = 0  # engines closed (evicted, failed, or at shutdown)
+        self.gc_pause = missions.runner.gc_pause
 
     async def state_at(self, mission_id: int, t: float) -> StateAt:
         """The state of mission `mission_id` at simulated time `t` (404 unknown, 422 `t`
@@ -125,11 +134,15 @@ class Playback:
         self._asking += 1
         try:
             async with self._workers:
-                cursor = await self._replay(row, actions, t)
+                self._out += 1
                 try:
-                    out = await asyncio.to_thread(self._read, cursor)
+                    cursor = await self._replay(row, actions, t)
+                    try:
+                        out = await asyncio.to_thread(self._read, cursor)
+                    finally:
+                        self._checkin(cursor)
                 finally:
-                    self._checkin(cursor)
+                    self._out -= 1
         finally:
             self._asking -= 1
         self._fill_later(row, actions, end)
@@ -188,14 +201,47 @@ class Playback:
             self._fills[row.id] = task
             task.add_done_callback(lambda _: self._fills.pop(row.id, None))
 
+    def share(self, mission_id: int) -> int:
+        """How many cursors this mission may keep through checkpoints: its even share of the
+        pool among the missions holding cursors (or building them), at most the per-mission
+        limit, at least `MIN_SHARE` (a checkpoint at the middle; only into free room).
+        Checkpoints of six missions wanting four each in a pool of ten would otherwise evict
+        one another and be rebuilt for ever."""
+        holders = {c.mission_id for c in self._parked} | set(self._fills) | {mission_id}
+        return min(self.per_mission, max(MIN_SHARE, self.capacity // len(holders)))
+
     async def _fill(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
-        while (at := gap_to_fill(self.parked(row.id), end, self.per_mission)) is not None:
+        """Checkpoints only into free room, within the mission's share, and at most
+        `per_mission` builds a run: a checkpoint never evicts another cursor, so this ends."""
+        for _ in range(self.per_mission):
+            if self._room() <= 0:
+                return
+            at = gap_to_fill(self.parked(row.id), end, self.share(row.id))
+            if at is None:
+                return
             async with self._filler:
                 try:
                     cursor = await self._replay(row, actions, at, background=True)
                 except Conflict:
                     return
+                if self._room() <= 0:  # requests filled the pool meanwhile: theirs goes first
+                    await asyncio.to_thread(self._close, cursor)
+                    return
                 self._checkin(cursor)
+
+    def _room(self) -> int:
+        """Free slots in the pool (parked cursors count, checked-out ones will come back)."""
+        return self.capacity - len(self._parked) - self._out
+
+    @property
+    def checked_out(self) -> int:
+        """Cursors working for requests now."""
+        return self._out
+
+    @property
+    def fills(self) -> int:
+        """Missions whose checkpoints are being built now."""
+        return len(self._fills)
 
     async def aclose(self) -> None:
         """Stop building checkpoints and close every parked engine (the server is stopping)."""
@@ -209,8 +255,13 @@ class Playback:
     # -- engine work (worker thread, short holds of the gate) ---------------------------
 
     def _close(self, cursor: Cursor) -> None:
+        """Close an engine and tell the collector: while a live mission keeps the heap frozen
+        (`app/live/gc_pause.py`), a dropped engine's reference cycles are only reclaimed by
+        the full collection this asks for."""
         with self.gate:
             cursor.engine.close()
+        self.closed += 1
+        self.gc_pause.dropped()
 
     def _build(self, row: MissionRow) -> Cursor:
         planner = row.planner if row.planner in PLANNERS else "ompl"  # as a resume does

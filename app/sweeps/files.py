@@ -10,6 +10,8 @@ import csv
 import json
 import logging
 import math
+import os
+import stat
 import time
 from pathlib import Path
 from typing import Any
@@ -103,12 +105,62 @@ SWEEP_FILES = {
 (only these names: nothing else in the folder is reachable)."""
 
 
+def read_served(root: Path, *parts: str) -> bytes | None:
+    """The bytes of `served_file(root, *parts)`, read without following any symlink even
+    if one is swapped in after the check: each folder is opened relative to the one before
+    with O_NOFOLLOW, then the file, whose own descriptor must be a regular file."""
+    if served_file(root, *parts) is None:
+        return None
+    fds: list[int] = []
+    try:
+        fds.append(os.open(root.resolve(), os.O_RDONLY | os.O_DIRECTORY))
+        for part in parts[:-1]:
+            flags = os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW
+            fds.append(os.open(part, flags, dir_fd=fds[-1]))
+        flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK  # a FIFO must not block the open
+        fds.append(os.open(parts[-1], flags, dir_fd=fds[-1]))
+        if not stat.S_ISREG(os.fstat(fds[-1]).st_mode):
+            return None
+        with os.fdopen(fds.pop(), "rb") as fh:
+            return fh.read()
+    except OSError:  # a symlink (ELOOP, ENOTDIR), gone meanwhile, unreadable
+        return None
+    finally:
+        for fd in fds:
+            os.close(fd)
+
+
+def served_file(root: Path, *parts: str) -> Path | None:
+    """`root/parts…` if it is a regular file reached without a symlink, else None.
+
+    A sweep's folder is written by worker processes and may be touched by anyone with a shell
+    on the host: a symlink placed in it must never let an unauthenticated reader fetch a file
+    from elsewhere (the operator token, the database). So every component below `root` is
+    checked with lstat (a symlink, a device or a folder is refused) and the resolved path must
+    still lie inside `root`; `read_served` then reads it without following a link."""
+    base = root.resolve()
+    path = base
+    for part in parts:
+        if not part or part in (".", "..") or os.sep in part or (os.altsep or os.sep) in part:
+            return None
+        path = path / part
+        try:
+            mode = path.lstat().st_mode
+        except (OSError, ValueError):
+            return None
+        if stat.S_ISLNK(mode):
+            return None
+    if not stat.S_ISREG(mode) or not path.resolve().is_relative_to(base):
+        return None
+    return path
+
+
 def file_links(out_dir: Path, sweep_id: int) -> list[dict[str, str]]:
     """The result files written so far, with the URLs that serve them."""
     return [
         {"name": name, "url": f"/api/sweeps/{sweep_id}/files/{name}", "media_type": media}
         for name, media in SWEEP_FILES.items()
-        if (out_dir / name).is_file()
+        if served_file(out_dir, name) is not None
     ]
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Path, Query, status
-from fastapi.responses import FileResponse
+from fastapi.responses import Response
 from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import Operator, ServicesDep, Viewer
@@ -102,25 +102,28 @@ async def get_sweep(
 @router.get(
     "/{sweep_id}/figures/{name}",
     dependencies=[Viewer],
-    response_class=FileResponse,
+    response_class=Response,
     responses={200: {"content": {m: {} for m in _MEDIA.values()}, "description": "the figure"}},
 )
-async def get_figure(sweep_id: SweepId, name: FigureName, sweeps: SweepsDep) -> FileResponse:
+async def get_figure(sweep_id: SweepId, name: FigureName, sweeps: SweepsDep) -> Response:
     """A figure of a completed sweep, as PNG or SVG."""
-    path = await sweeps.figure(sweep_id, name)
-    return FileResponse(path, media_type=_MEDIA[path.suffix.lstrip(".")])
+    data = await sweeps.figure(sweep_id, name)
+    return Response(data, media_type=_MEDIA[name.rsplit(".", 1)[-1]])
 
 
 @router.get(
     "/{sweep_id}/files/{name}",
     dependencies=[Viewer],
-    response_class=FileResponse,
+    response_class=Response,
     responses={200: {"content": {m: {} for m in SWEEP_FILES.values()}, "description": "the file"}},
 )
-async def get_file(sweep_id: SweepId, name: FileName, sweeps: SweepsDep) -> FileResponse:
+async def get_file(sweep_id: SweepId, name: FileName, sweeps: SweepsDep) -> Response:
     """A result file of the sweep, as an attachment named `sweep-{id}-{name}`."""
-    path = await sweeps.file(sweep_id, name)
-    return FileResponse(path, media_type=SWEEP_FILES[name], filename=f"sweep-{sweep_id}-{name}")
+    data = await sweeps.file(sweep_id, name)
+    disposition = f'attachment; filename="sweep-{sweep_id}-{name}"'  # names are [a-z.]+
+    return Response(
+        data, media_type=SWEEP_FILES[name], headers={"content-disposition": disposition}
+    )
 
 
 @router.post("/{sweep_id}/cancel", dependencies=[Operator])

@@ -74,6 +74,13 @@ DEFAULT_POLICIES = (1, 2, 3)
 class SweepCreate(_In):
     """Every policy on every seed of one scenario (the reference by default), K× scaled."""
 
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "examples": [{"policies": [1, "coalition"], "seeds": "0-1", "scale": 1}]
+        },
+    )
+
     policies: Annotated[list[PolicyName], Field(min_length=1, max_length=16)] = Field(
         default_factory=lambda: list(DEFAULT_POLICIES),
         description="numbers or names, e.g. [1, 2, 3]",

@@ -36,6 +36,7 @@ from app.sweeps.files import (
     figure_links,
     file_links,
     read_results,
+    read_served,
     set_aside,
 )
 from app.sweeps.job import SweepJob, halt, progress_fields, work
@@ -277,24 +278,23 @@ class SweepManager:
         out["files"] = await run_in_threadpool(file_links, self.out_dir(sweep_id), sweep_id)
         return out
 
-    async def file(self, sweep_id: int, name: str) -> Path:
+    async def file(self, sweep_id: int, name: str) -> bytes:
         """One of the sweep's result files (`SWEEP_FILES`), once written."""
         await self._row(sweep_id)
         if name not in SWEEP_FILES:
             raise NotFound(f"sweep {sweep_id} has no file {name!r}")
-        path = self.out_dir(sweep_id) / name
-        if not await run_in_threadpool(path.is_file):
+        data = await run_in_threadpool(read_served, self.root, str(sweep_id), name)
+        if data is None:
             raise NotFound(f"sweep {sweep_id} has no {name} yet")
-        return path
+        return data
 
-    async def figure(self, sweep_id: int, name: str) -> Path:
+    async def figure(self, sweep_id: int, name: str) -> bytes:
         """A figure file of the sweep; the name must stay inside its figures folder."""
         await self._row(sweep_id)
-        base = (self.out_dir(sweep_id) / FIG_DIR).resolve()
-        path = (base / name).resolve()
-        if path.parent != base or not await run_in_threadpool(path.is_file):
+        data = await run_in_threadpool(read_served, self.root, str(sweep_id), FIG_DIR, name)
+        if data is None:
             raise NotFound(f"sweep {sweep_id} has no figure {name!r}")
-        return path
+        return data
 
 
 # -- reads (thread pool) -------------------------------------------------------------------

@@ -28,7 +28,7 @@ async function loadImage(img, url) {
 
 /** "#3 · reference ×1 · 1 · FCFS, 2 · Coalitions × 10 seeds (running)": the whole description. */
 function describe(s) {
-  const scale = s.scale > 1 ? ` ×${s.scale}` : "";
+  const scale = s.scale > 1 && !s.scenario_name.endsWith(`-x${s.scale}`) ? ` ×${s.scale}` : ""; // "reference-x4" says it
   return `Sweep #${s.id}: ${s.scenario_name}${scale}, ${s.policies.map(policyLabel).join(", ")} × ${s.n_seeds} seeds, ${s.status}`;
 }
 

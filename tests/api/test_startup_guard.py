@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from app.startup import StartupRefused, preflight
 from tests.api.conftest import TOKEN, LiveServer, database_for, make_settings, run_to_end
 from tests.api.serve_process import ROOT, ServeProcess, free_port
 
@@ -118,6 +119,43 @@ def test_a_second_server_on_the_same_postgresql_database_refuses_to_start(
         assert api.get(f"/api/missions/{mid}").json()["status"] == "interrupted"
     gone = url.rsplit("/", 1)[0] + "/no_such_database"
     _one_line(_serve(tmp_path / "three", "--db", gone), "serve", "cannot connect", "no_such")
+
+
+@pytest.mark.sqlite_only
+def test_a_second_server_on_the_same_sqlite_file_refuses_whatever_its_data_folder(
+    tmp_path: Path,
+) -> None:
+    """Another data folder whose --db names the first server's file (directly or through a
+    symlink): refused by the lock beside the file; the first server's live mission goes on."""
+    one = tmp_path / "one"
+    with ServeProcess(one) as first, first.client() as api:
+        mid = api.post("/api/missions", json={"speed": 1.0}).json()["id"]
+        assert api.get(f"/api/missions/{mid}").json()["status"] == "running"
+        db = one / "regolith.db"
+        link = tmp_path / "elsewhere" / "link.db"
+        link.parent.mkdir()
+        link.symlink_to(db)
+        for named in (db, link):
+            url = f"sqlite:///{named}"
+            line = _one_line(_serve(tmp_path / "two", "--db", url), "serve", "in use", str(db))
+            assert f"pid {first.proc.pid if first.proc else ''}" in line
+            assert "another Regolith server" in line and "--db" in line
+            upgrade = _regolith("db", "upgrade", "--data-dir", str(tmp_path / "two"), "--db", url)
+            _one_line(upgrade, "db upgrade", "in use", str(db))
+        got = api.get(f"/api/missions/{mid}").json()
+        assert got["status"] == "running", got
+        log = first.stderr()
+        assert "background write failed" not in log and "interrupted" not in log, log
+
+
+@pytest.mark.sqlite_only
+def test_a_database_that_cannot_be_locked_is_refused(tmp_path: Path) -> None:
+    """Neither a file to lock beside nor an advisory lock: refused, not shared unguarded."""
+    settings = make_settings(tmp_path, db_url="mysql://u:secret@localhost/x")
+    with pytest.raises(StartupRefused, match="no way to lock") as refused:
+        preflight(settings)
+    assert "secret" not in str(refused.value)
+    preflight(make_settings(tmp_path)).release()  # the folder's lock was not left behind
 
 
 @EMBEDDED_REFUSAL

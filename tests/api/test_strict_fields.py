@@ -87,3 +87,50 @@ def test_a_body_not_sent_as_json_says_what_to_send(api: httpx.Client, content_ty
     res = api.post("/api/missions", content=body, headers={"Content-Type": "application/json"})
     assert res.status_code == 201, res.text
     api.post(f"/api/missions/{res.json()['id']}/stop")
+
+
+@pytest.mark.parametrize(
+    ("path", "body", "message"),
+    [
+        (
+            "/api/missions",
+            {"speed": -1},
+            "body.speed: Input should be greater than or equal to 0, or 'max'",
+        ),
+        (
+            "/api/missions",
+            {"speed": "fast"},
+            "body.speed: Input should be a valid number, or 'max'",
+        ),
+        (
+            "/api/missions",
+            {"speed": 1e-300},
+            "body.speed: must be 0 (pause), at least 0.1, or 'max'",
+        ),
+        ("/api/missions", {"speed": 0.05}, "body.speed: must be 0 (pause), at least 0.1, or 'max'"),
+        ("/api/missions", {"policy": 9}, "body.policy: "),
+        ("/api/sweeps", {"seeds": {"from": 1}}, "body.seeds.to: Field required"),
+        ("/api/sweeps", {"seeds": 5.5}, "body.seeds: "),
+        ("/api/sweeps", {"policies": [9]}, "body.policies.0: "),
+    ],
+)
+def test_a_field_of_two_types_is_named_alone(
+    api: httpx.Client, path: str, body: dict[str, Any], message: str
+) -> None:
+    """A field taking a number or "max" (a name or a number, …) fails once per type; the
+    message names the field (`body.speed`), never the validator (`constrained-float`)."""
+    res = api.post(path, json=body)
+    assert res.status_code == 422, res.text
+    said = res.json()["message"]
+    assert said.startswith(message) and said.count("body.") == 1, said
+    for leak in ("constrained", "literal[", "function-after", "str]", "int]", "lax-", "range."):
+        assert leak not in said, said
+    first = res.json()["detail"][0]["loc"][:2]
+    assert first == said.split(":")[0].split(".")[:2]  # the detail's location, tags left out
+
+
+def test_speed_has_a_floor(server: LiveServer, api: httpx.Client) -> None:
+    mid = api.post("/api/missions", json={"paused": True, "planner": "straight"}).json()["id"]
+    res = api.put(f"/api/missions/{mid}/speed", json={"speed": 1e-300})
+    assert res.status_code == 422 and res.json()["message"].startswith("body.speed: must be 0")
+    assert api.put(f"/api/missions/{mid}/speed", json={"speed": 0.1}).json()["speed"] == 0.1

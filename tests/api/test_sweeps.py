@@ -4,6 +4,7 @@ a small scenario (each run ~0.3 s)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -165,6 +166,41 @@ def test_figure_and_file_names_cannot_leave_the_sweep_folder(
         assert res.status_code in (404, 422), (name, res.status_code)
         assert b"SQLite" not in res.content
     assert api.get("/api/sweeps/999/files/runs.csv").status_code == 404
+
+
+@pytest.mark.sqlite_only  # paths on disk, whatever the database
+def test_a_symlink_in_the_sweep_folder_is_never_followed(
+    server: LiveServer, api: httpx.Client, tmp_path: Path
+) -> None:
+    sid = _start(api, policies=[1], seeds="0")["id"]
+    assert _until(api, sid, "completed", "failed")["status"] == "completed"
+    out = Path(server.settings.data_dir) / "sweeps" / str(sid)
+    secret = tmp_path / "operator-token"
+    secret.write_text("secret-operator-token")
+    viewer = server.client(token=False)
+    # a result file and a figure replaced by links to a file outside the folder
+    (out / "report.md").unlink()
+    (out / "report.md").symlink_to(secret)
+    (out / "figures" / "makespan.png").unlink()
+    (out / "figures" / "makespan.png").symlink_to(secret)
+    # a link to a file that is inside the folder is refused too: only regular files are served
+    (out / "summary.json").rename(out / "summary.real")
+    (out / "summary.json").symlink_to(out / "summary.real")
+    for url in ("files/report.md", "figures/makespan.png", "files/summary.json"):
+        res = viewer.get(f"/api/sweeps/{sid}/{url}")
+        assert res.status_code == 404, (url, res.status_code)
+        assert b"secret-operator-token" not in res.content
+    links = {f["name"] for f in viewer.get(f"/api/sweeps/{sid}").json()["files"]}
+    assert "report.md" not in links and "summary.json" not in links and "runs.csv" in links
+    # a named pipe is no regular file: refused at once, never a read that blocks
+    (out / "bounds.csv").unlink(missing_ok=True)
+    os.mkfifo(out / "bounds.csv")
+    assert viewer.get(f"/api/sweeps/{sid}/files/bounds.csv").status_code == 404
+    # a linked figures folder is refused as a whole
+    (out / "figures").rename(out / "figures.real")
+    (out / "figures").symlink_to(out / "figures.real")
+    assert viewer.get(f"/api/sweeps/{sid}/figures/makespan.svg").status_code == 404
+    assert viewer.get(f"/api/sweeps/{sid}/files/runs.csv").status_code == 200
 
 
 def test_cancel_then_resume_finishes_without_repeating_a_run(

@@ -1,5 +1,7 @@
 """The CLI help lists the policies from the engine's registry, so a new one shows up by itself."""
 
+import re
+
 import pytest
 from typer.testing import CliRunner
 
@@ -15,3 +17,26 @@ def test_help_names_every_registered_policy(command):
     text = text.replace("- ", "-")  # …and after a hyphen: "5|coalition-\n relaxed"
     for p in policy_table():
         assert f"{p['number']}|{p['name']} ({p['label']})" in text, (command, p["name"])
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["run"],
+        ["sweep"],
+        ["serve"],
+        ["db", "upgrade"],
+        ["fleet", "run"],
+        ["fleet", "up"],
+        ["agent"],
+    ],
+)
+def test_every_command_names_its_values_alike(command):
+    """One help style: `--seed N`, `--kill NAME@T`, never Typer's `<int range>` or
+    `<list[str]>`."""
+    result = CliRunner().invoke(cli, [*command, "--help"])
+    if result.exit_code != 0 and "zenoh" in result.output.lower():
+        pytest.skip("field commands need zenoh")
+    assert result.exit_code == 0, result.output
+    options = result.output.split("Options:")[1]
+    assert not re.search(r"--[\w-]+ <", options), options

@@ -96,6 +96,19 @@ def test_a_bad_scenario_file_names_the_field(tmp_path: Path):
 
 
 @pytest.mark.parametrize(
+    ("name", "text"), [("bad.json", '{"width": -1}'), ("bad.toml", "width = -1\n")]
+)
+def test_a_bad_value_in_a_scenario_file_names_the_file(tmp_path: Path, name: str, text: str):
+    bad = tmp_path / name
+    bad.write_text(text)
+    out = CliRunner().invoke(cli, ["run", "--policy", "1", "--scenario", str(bad)])
+    assert out.exit_code == 2
+    assert out.output.strip() == (
+        f"regolith run: scenario file {bad}: width: Input should be greater than 0"
+    ), out.output
+
+
+@pytest.mark.parametrize(
     ("text", "says"),
     [
         ("crater_radius = [0.0001, 0.0004]\n", "crater_radius"),  # once a 500 and a traceback

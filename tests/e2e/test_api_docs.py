@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from urllib.parse import urlsplit
 
 import pytest
@@ -39,6 +40,22 @@ def test_swagger_ui_renders_offline(page: Page, console: ConsoleLog, offline: li
     page.locator(".opblock-summary", has_text="/api/health").first.click()  # the UI works
     expect(page.locator(".opblock-body").first).to_be_visible()
     assert offline == [] and console.errors == []
+
+
+def test_swagger_try_it_out_fills_in_a_valid_example(page: Page, offline: list[str]) -> None:
+    """ "Try it out" on POST /api/missions fills in the published example (a request the API
+    accepts, tests/api/test_openapi_examples.py), not a body made up from the schema."""
+    page.goto("/docs")
+    op = page.locator(
+        ".opblock-post", has=page.locator(".opblock-summary-path[data-path='/api/missions']")
+    )
+    op.locator(".opblock-summary").click()
+    op.locator("button.try-out__btn").click()
+    body = json.loads(op.locator("textarea.body-param__text").input_value())
+    spec = page.request.get("/openapi.json").json()
+    first = spec["components"]["schemas"]["MissionCreate"]["examples"][0]
+    assert body == first
+    assert offline == []
 
 
 def test_redoc_renders_offline(page: Page, console: ConsoleLog, offline: list[str]) -> None:

@@ -60,6 +60,9 @@ def test_bad_files_say_what_is_wrong(tmp_path: Path):
 
 def test_scaling_keeps_density_and_is_validated():
     s10 = reference_scenario().scaled(10)
+    assert s10.name == "reference-x10"
+    long = reference_scenario().model_copy(update={"name": "n" * 80}).scaled(16)
+    assert long.name == "n" * 76 + "-x16"  # within the name's 80 characters
     assert (s10.team.haulers, s10.sites, s10.minerals, s10.random_craters) == (60, 100, 640, 60)
     assert s10.width == pytest.approx(100 * 10**0.5)
     assert s10.plant_xy == pytest.approx((50 * 10**0.5, 50 * 10**0.5))

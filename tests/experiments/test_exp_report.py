@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from experiments.figures import (
     DPI,
@@ -19,6 +20,7 @@ from experiments.figures import (
     Panel,
     build_figure,
     build_paired_figure,
+    figure_specs,
 )
 from experiments.outputs import write_outputs
 from experiments.stats import holm
@@ -241,3 +243,65 @@ def test_figure_text_is_readable_and_run_dots_visible() -> None:
     assert any(
         np.asarray(line.get_ydata()).tolist() == [0.0, 0.0] for line in ax.get_lines()
     )  # zero line
+
+
+def _outside(fig: Any) -> list[str]:
+    """Every title, label, tick label, note and axes frame not wholly inside the figure (as
+    saved: the same Agg drawing)."""
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    box = fig.bbox
+    parts: list[Any] = [t for t in fig.texts if t.get_text()]
+    if fig._suptitle is not None:
+        parts.append(fig._suptitle)
+    for ax in fig.axes:
+        parts += [ax, ax.title, ax.yaxis.label, ax.xaxis.label, *ax.texts]
+        parts += [*ax.get_xticklabels(), *ax.get_yticklabels()]
+    out = []
+    for part in parts:
+        if hasattr(part, "get_text") and not part.get_text():
+            continue
+        ext = part.get_window_extent(renderer)
+        inside = (
+            ext.x0 >= box.x0 - 0.5
+            and ext.x1 <= box.x1 + 0.5
+            and ext.y0 >= box.y0 - 0.5
+            and ext.y1 <= box.y1 + 0.5
+        )
+        if not inside:
+            out.append(getattr(part, "get_text", lambda: "axes frame")())
+    return out
+
+
+@pytest.mark.parametrize("policies", [1, 2, 3, 6])
+def test_every_figure_fits_its_title_and_frames(policies: int) -> None:
+    """A long title (the makespan ratio's) or many policies never push text or a frame out of
+    the saved image."""
+    cols = ["makespan_s", "makespan_ratio", "distance_scouts", "distance_haulers"]
+    labels = [f"Policy {i} (name-{i})" for i in range(1, policies + 1)]
+    for spec in figure_specs(cols):
+        data = {p.column: {k: [1.0, 1.2, 1.5] for k in labels} for p in spec.panels}
+        assert _outside(build_figure(spec, data)) == [], spec.name
+    comps = [PairedDiff(k, [0.0, 0.0, 0.0], (0.0, 0.0), "p_adj=n/a\nequal 3/3") for k in labels]
+    title = "Makespan / per-run lower bound: difference from Policy 1 (fcfs)\non the same seed"
+    paired = build_paired_figure(title, "makespan / per-run lower bound", "×", "P1", comps)
+    assert _outside(paired) == []
+
+
+def test_an_exact_tie_is_said_to_be_one(tmp_path: Path) -> None:
+    """Two policies equal on every seed (the same makespans and distances): no signed zero,
+    no "lower on 0 of 20 seeds", but an exact tie."""
+    rng = np.random.default_rng(8)
+    world = rng.normal(2000, 300, SEEDS)
+    records = [
+        record(p, s, float(world[s]), distance={"scout": 2000.0 + s, "hauler": 3000.0 - s})
+        for p in ("fcfs", "coalition")
+        for s in range(SEEDS)
+    ]
+    summary, report = outputs(tmp_path, records)
+    verdicts = " ".join(v for f in summary["figures"] for v in f.get("verdict", []))
+    for text in (report, verdicts):
+        assert "-0.0" not in text and "−0.0" not in text, text
+        assert "lower on 0 of" not in text, text
+    assert f"equal on {SEEDS} of {SEEDS} seeds" in report and "exact tie" in report
