@@ -174,6 +174,15 @@ def fleet_run(
         raise typer.Exit(1)
 
 
+def _dropped(r: dict[str, Any] | None) -> str:
+    """What the mission's processes dropped from the bus or refused (docs/field.md, Trust)."""
+    if not r:
+        return "0"
+    refused = r.get("world_refused", 0)
+    reasons = ", ".join(f"{k} {n}" for k, n in r["by_reason"].items()) or "none"
+    return f"{r['total'] + refused} (mission control: {reasons}; world refused {refused})"
+
+
 def fleet_summary(m: dict[str, Any]) -> str:
     """A field run's figures for a person, in `regolith run`'s layout."""
     ms = m["makespan_s"]
@@ -189,7 +198,8 @@ def fleet_summary(m: dict[str, Any]) -> str:
         f"  minerals        {m['minerals_delivered']}/{m['minerals_total']} delivered",
         f"  auctions {m['auctions']}, bids {m['bids']}, re-auctions {m['reauctions']}, "
         f"re-announcements {m['reannouncements']}",
-        f"  messages        {m['messages']} over Zenoh ({tr.get('malformed', 0)} malformed)",
+        f"  messages        {m['messages']} over Zenoh",
+        f"  dropped         {_dropped(tr.get('rejections'))}",
         f"  processes       {len(procs)} agents started, {killed} killed",
     ]
     for a in m.get("actions", []):
