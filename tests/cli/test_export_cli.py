@@ -3,13 +3,18 @@ from a server's database (a real server stored the mission), and one-line errors
 
 from __future__ import annotations
 
+import contextlib
 import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+from app.db.session import make_engine, make_sessionmaker
+from app.export import source
+from app.export.writer import CHUNK_BYTES, mcap_blocks
 from tests.api.conftest import LiveServer, make_settings, run_to_end
 from tests.mcap_check import read_export
 
@@ -84,3 +89,22 @@ def test_missing_out_is_usage_error() -> None:
     r = regolith("export", "1")
     assert r.returncode == 2
     assert "regolith export: missing option '--out'" in r.stderr
+
+
+def test_the_stream_holds_about_one_chunk_at_a_time(stored: tuple[Path, int, bytes]) -> None:
+    """The file comes out in blocks of at most one compressed chunk, not whole at the end."""
+    data, mid, served = stored
+    engine = make_engine(f"sqlite:///{data / 'regolith.db'}")
+    sessions = make_sessionmaker(engine)
+
+    def read(fn: Any, *args: Any) -> Any:
+        with sessions() as session:
+            return fn(session, *args)
+
+    try:
+        blocks = list(mcap_blocks(read, read(source.load_now, mid), contextlib.nullcontext))
+    finally:
+        engine.dispose()
+    assert b"".join(blocks) == served
+    assert len(blocks) > 3
+    assert max(len(b) for b in blocks) <= CHUNK_BYTES
