@@ -15,6 +15,7 @@ from types import TracebackType
 import httpx
 
 from tests.api.conftest import AUTH, TOKEN, database_for
+from tests.progress import START_S
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -45,7 +46,7 @@ class ServeProcess:
             cmd += ["--db", url]
         with self._out.open("wb") as out, self._err.open("wb") as err:  # files: never block it
             self.proc = subprocess.Popen(cmd, env=self.env, cwd=ROOT, stdout=out, stderr=err)
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + START_S  # as long as it is alive (tests/progress.py)
         while True:
             try:
                 if httpx.get(f"{self.url}/api/health").status_code == 200:

@@ -21,6 +21,8 @@ from typing import Any
 import httpx
 import pytest
 
+from tests.progress import START_S
+
 CHROMIUM = Path(os.environ.get("REGOLITH_CHROMIUM", "/usr/bin/chromium"))  # Debian's
 TOKEN = "e2e-operator-token-0123456789"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -106,7 +108,7 @@ class Server:
         ]
         with self.log.open("ab") as out:
             self.proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=out, stderr=out)
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + START_S  # as long as it is alive (tests/progress.py)
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 return False
