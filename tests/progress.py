@@ -21,6 +21,9 @@ STALL_S = 90.0
 #: A server or process starting shows no progress to measure: it is waited for as long as it
 #: is alive, up to this generous limit (a few seconds on an idle machine).
 START_S = 300.0
+#: A test's HTTP client gives up on one request after this long: a backstop for a server that
+#: hangs, far past a busy server's slowest answer.
+REQUEST_S = 120.0
 
 
 class Progress:

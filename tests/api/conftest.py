@@ -30,7 +30,7 @@ from websockets.sync.client import ClientConnection, connect
 from app.main import create_app
 from app.settings import Settings
 from tests.pgcluster import PgCluster, server_bin
-from tests.progress import STALL_S, START_S, wait_progress
+from tests.progress import REQUEST_S, STALL_S, START_S, wait_progress
 
 TOKEN = "test-operator-token-0123456789"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -84,7 +84,7 @@ class LiveServer:
         return f"http://127.0.0.1:{self.port}"
 
     def client(self, token: bool = True) -> httpx.Client:
-        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=30)
+        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=REQUEST_S)
 
     def ws(self, mission_id: int) -> ClientConnection:
         return connect(f"ws://127.0.0.1:{self.port}/api/missions/{mission_id}/live", max_size=2**24)

@@ -15,7 +15,7 @@ from types import TracebackType
 import httpx
 
 from tests.api.conftest import AUTH, TOKEN, database_for
-from tests.progress import START_S
+from tests.progress import REQUEST_S, START_S
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -81,7 +81,7 @@ class ServeProcess:
         return f"http://127.0.0.1:{self.port}"
 
     def client(self, token: bool = True) -> httpx.Client:
-        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=30)
+        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=REQUEST_S)
 
     def stderr(self) -> str:
         return self._err.read_text(encoding="utf-8", errors="replace")

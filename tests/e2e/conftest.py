@@ -21,7 +21,7 @@ from typing import Any
 import httpx
 import pytest
 
-from tests.progress import START_S
+from tests.progress import REQUEST_S, START_S
 
 CHROMIUM = Path(os.environ.get("REGOLITH_CHROMIUM", "/usr/bin/chromium"))  # Debian's
 TOKEN = "e2e-operator-token-0123456789"
@@ -147,7 +147,7 @@ class Server:
         return f"http://127.0.0.1:{self.port}"
 
     def api(self) -> httpx.Client:
-        return httpx.Client(base_url=f"{self.url}/api", headers=AUTH, timeout=30)
+        return httpx.Client(base_url=f"{self.url}/api", headers=AUTH, timeout=REQUEST_S)
 
 
 def running_server(factory: pytest.TempPathFactory, name: str) -> Iterator[Server]:
