@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import heapq
 import json
-from collections.abc import Iterable, Iterator
+from collections.abc import Generator, Iterable, Iterator
 from typing import IO, Any, cast
 
 from mcap.writer import Writer
@@ -116,7 +116,7 @@ def mcap_blocks(
     m: StoredMission,
     gate: source.Gate,
     step: float = source.POSE_STEP_S,
-) -> Iterator[bytes]:
+) -> Generator[bytes, None, None]:
     """The MCAP file of mission `m`, as byte blocks to write or send in order."""
     spool = _Spool()
     writer = Writer(cast(IO[Any], spool), chunk_size=CHUNK_BYTES)

@@ -4,12 +4,16 @@ against what the server stored, the poses against the mission's own final state.
 
 from __future__ import annotations
 
+import asyncio
 import math
+import threading
+from collections.abc import Generator
 from typing import Any
 
 import httpx
 import pytest
 
+from app.api.routes.export import EXPORTS, _stream
 from tests.api.conftest import LiveServer, all_pages, run_to_end
 from tests.api.test_field_mark import stand_in_field  # noqa: F401 - a fixture
 from tests.mcap_check import Export, read_export
@@ -120,6 +124,30 @@ def test_a_live_mission_exports_as_far_as_it_has_run(server: LiveServer, api: ht
     export = _export(server, mid)  # whatever is stored now, consistent with itself
     assert export.count("/log") == sum(export.kinds().values())
     api.post(f"/api/missions/{mid}/stop").raise_for_status()
+
+
+def test_a_stream_left_early_closes_its_writer_and_gives_its_slot_back() -> None:
+    """A client that goes away after the first block: the writer (and its replay engine) is
+    closed and the export's slot is free again, as when the stream ends normally."""
+    slots = threading.BoundedSemaphore(EXPORTS)
+    closed: list[str] = []
+
+    def endless() -> Generator[bytes, None, None]:
+        try:
+            while True:
+                yield b"block"
+        finally:
+            closed.append(threading.current_thread().name)
+
+    async def leave_early() -> None:
+        assert slots.acquire(blocking=False)
+        stream = _stream(endless(), slots)
+        assert await anext(stream) == b"block"
+        await stream.aclose()  # what the server does when the client has gone
+
+    asyncio.run(leave_early())
+    assert closed and closed[0] != threading.main_thread().name  # closed on a worker thread
+    assert all(slots.acquire(blocking=False) for _ in range(EXPORTS))  # every slot is back
 
 
 @pytest.mark.parametrize(

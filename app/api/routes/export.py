@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Generator
 
+import anyio
 from fastapi import APIRouter, HTTPException, Request, status
 from fastapi.responses import StreamingResponse
 
@@ -27,12 +28,18 @@ def _slots(request: Request) -> threading.BoundedSemaphore:
     return slots
 
 
-def _released(blocks: Iterator[bytes], slots: threading.BoundedSemaphore) -> Iterator[bytes]:
-    """The blocks, giving the export's slot back however the stream ends (a client that
-    goes away closes the generator)."""
+async def _stream(
+    blocks: Generator[bytes, None, None], slots: threading.BoundedSemaphore
+) -> AsyncIterator[bytes]:
+    """The blocks, each made on a worker thread (database pages, replay steps); however the
+    stream ends (done, failed, the client gone) the writer is closed on a worker thread too
+    (its replay engine takes the engine gate) and the export's slot is given back."""
     try:
-        yield from blocks
+        while (block := await anyio.to_thread.run_sync(next, blocks, None)) is not None:
+            yield block
     finally:
+        with anyio.CancelScope(shield=True):
+            await anyio.to_thread.run_sync(blocks.close)
         slots.release()
 
 
@@ -60,7 +67,7 @@ async def export_mcap(
         )
     blocks = mcap_blocks(missions.store.read_now, stored, missions.gate.stepping)
     return StreamingResponse(
-        _released(blocks, slots),
+        _stream(blocks, slots),
         media_type=MEDIA_TYPE,
         headers={"Content-Disposition": f'attachment; filename="mission-{mission_id}.mcap"'},
     )
