@@ -31,6 +31,12 @@ try:
 except ImportError:  # pragma: no cover
     pass
 try:
+    from app.cli import export as _export
+
+    _export.register(cli)
+except ImportError:  # pragma: no cover
+    pass
+try:
     from app.cli import field as _field
 
     _field.register(cli)

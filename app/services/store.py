@@ -108,6 +108,12 @@ class Store:
 
         return await run_in_threadpool(_run)
 
+    def read_now(self, fn: Callable[..., T], *args: Any) -> T:
+        """`read` on the calling thread: for work that already runs on a thread of its own
+        (an export's stream, page by page)."""
+        with self._sessions() as session:
+            return fn(session, *args)
+
     def close(self) -> None:
         """Finish every queued write, then stop the writer."""
         self._queue.put(_STOP)

@@ -30,6 +30,7 @@ from websockets.sync.client import ClientConnection, connect
 from app.main import create_app
 from app.settings import Settings
 from tests.pgcluster import PgCluster, server_bin
+from tests.progress import REQUEST_S, STALL_S, START_S, wait_progress
 
 TOKEN = "test-operator-token-0123456789"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -60,7 +61,7 @@ class LiveServer:
         self._server = server = uvicorn.Server(config)
         self._thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
         self._thread.start()
-        deadline = time.monotonic() + 20
+        deadline = time.monotonic() + START_S  # as long as it is alive (tests/progress.py)
         while not server.started:
             if not self._thread.is_alive() or time.monotonic() > deadline:
                 raise RuntimeError("server did not start")
@@ -83,7 +84,7 @@ class LiveServer:
         return f"http://127.0.0.1:{self.port}"
 
     def client(self, token: bool = True) -> httpx.Client:
-        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=30)
+        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=REQUEST_S)
 
     def ws(self, mission_id: int) -> ClientConnection:
         return connect(f"ws://127.0.0.1:{self.port}/api/missions/{mission_id}/live", max_size=2**24)
@@ -213,15 +214,23 @@ def recv_until(
             return message
 
 
-def run_to_end(api: httpx.Client, mission_id: int, timeout: float = 60) -> dict[str, Any]:
-    """Let a mission finish at full speed and return its stored record."""
+def run_to_end(api: httpx.Client, mission_id: int, stall_s: float = STALL_S) -> dict[str, Any]:
+    """Let a mission finish at full speed and return its stored record; however slowly it
+    runs, as long as its simulated time moves (tests/progress.py)."""
     api.put(f"/api/missions/{mission_id}/speed", json={"speed": "max"}).raise_for_status()
+    seen: dict[str, Any] = {}
 
     def finished() -> dict[str, Any] | None:
         m: dict[str, Any] = api.get(f"/api/missions/{mission_id}").json()
+        seen.update(m)
         return m if m["status"] not in ("running", "paused") else None
 
-    return wait_for(finished, timeout)
+    return wait_progress(
+        finished,
+        lambda: (seen.get("status"), seen.get("sim_time")),
+        f"mission {mission_id} to end",
+        stall_s,
+    )
 
 
 def all_pages(api: httpx.Client, path: str, **params: Any) -> list[dict[str, Any]]:

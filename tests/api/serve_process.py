@@ -15,6 +15,7 @@ from types import TracebackType
 import httpx
 
 from tests.api.conftest import AUTH, TOKEN, database_for
+from tests.progress import REQUEST_S, START_S
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -45,7 +46,7 @@ class ServeProcess:
             cmd += ["--db", url]
         with self._out.open("wb") as out, self._err.open("wb") as err:  # files: never block it
             self.proc = subprocess.Popen(cmd, env=self.env, cwd=ROOT, stdout=out, stderr=err)
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + START_S  # as long as it is alive (tests/progress.py)
         while True:
             try:
                 if httpx.get(f"{self.url}/api/health").status_code == 200:
@@ -80,7 +81,7 @@ class ServeProcess:
         return f"http://127.0.0.1:{self.port}"
 
     def client(self, token: bool = True) -> httpx.Client:
-        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=30)
+        return httpx.Client(base_url=self.url, headers=AUTH if token else {}, timeout=REQUEST_S)
 
     def stderr(self) -> str:
         return self._err.read_text(encoding="utf-8", errors="replace")

@@ -30,8 +30,8 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 
 from engine.policies import POLICIES
-from tests.api.conftest import wait_for
 from tests.api.serve_process import ServeProcess
+from tests.progress import wait_progress
 
 Json = dict[str, Any]
 
@@ -346,7 +346,12 @@ def test_chaos_three_missions_ten_viewers_then_everything_completes(tmp_path: Pa
             records = [api.get(f"/api/missions/{mid}").json() for mid in missions]
             return records if all(m["status"] not in LIVE for m in records) else None
 
-        records = wait_for(ended, timeout=60, every=0.2)
+        records = wait_progress(
+            ended,
+            lambda: [api.get(f"/api/missions/{mid}").json()["sim_time"] for mid in missions],
+            f"seed {seed}: missions {missions} to end",
+            every=0.2,
+        )
         for m in records:
             metrics = m["metrics"]
             where = f"seed {seed}, mission {m['id']} (seed {m['seed']}, {m['initial_policy']})"

@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from app.cli.serve import register
 from tests.api.conftest import database_for, wait_for
+from tests.progress import START_S
 
 
 @pytest.fixture
@@ -87,7 +88,7 @@ def test_serve_prints_url_and_token_and_serves(tmp_path: Path) -> None:
             except httpx.TransportError:
                 return False
 
-        wait_for(healthy, timeout=30, every=0.1)
+        wait_for(healthy, timeout=START_S, every=0.1)  # as long as it starts
         auth = {"Authorization": f"Bearer {token.group(1)}"}
         r = httpx.post(f"http://127.0.0.1:{port}/api/missions", json={"paused": True}, headers=auth)
         assert r.status_code == 201, r.text

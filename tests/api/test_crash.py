@@ -15,6 +15,7 @@ import httpx
 
 from engine import Mission, reference_scenario
 from tests.api.conftest import AUTH, TOKEN, all_pages, database_for, run_to_end, wait_for
+from tests.progress import START_S
 
 
 def _serve(data: Path, port: int) -> subprocess.Popen[bytes]:
@@ -31,7 +32,7 @@ def _serve(data: Path, port: int) -> subprocess.Popen[bytes]:
         except httpx.TransportError:
             return False
 
-    wait_for(up, timeout=60, every=0.1)
+    wait_for(up, timeout=START_S, every=0.1)  # as long as it starts (tests/progress.py)
     return proc
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import time
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
@@ -16,6 +15,7 @@ import websockets
 from bench.slow_viewer import gauge, stalled_viewer
 from tests.api.conftest import LiveServer, all_pages, recv, recv_until
 from tests.api.serve_process import ServeProcess
+from tests.progress import Progress
 
 Msg = dict[str, Any]
 LONG = {"minerals": 1500, "max_time_s": 10_000_000}  # outlasts any test window
@@ -231,9 +231,9 @@ async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, An
         return gauge(text, "regolith_viewers", mid), gauge(text, "regolith_viewer_backlog", mid)
 
     async def until(what: str, done: Callable[[], Awaitable[bool]]) -> None:
-        deadline = time.monotonic() + 60
+        watch = Progress(what)  # the readers' frames are the server's progress
         while not await done():
-            assert time.monotonic() < deadline, f"never: {what}"
+            watch.check(sum(frames))
             await asyncio.sleep(0.05)
 
     async def more_frames(n: int) -> None:

@@ -15,6 +15,7 @@ from websockets.asyncio.client import ClientConnection, connect
 
 from app.live.frames import Replica
 from tests.api.conftest import AUTH, LiveServer
+from tests.progress import Progress
 
 Json = dict[str, Any]
 ENDED = {"completed", "stopped", "stalled", "failed", "timeout", "cancelled"}
@@ -143,7 +144,12 @@ async def _session(server: LiveServer, seed: int) -> tuple[Watcher, list[Watcher
         await asyncio.sleep(1.0)
         done.set()
         did = await operating
-        await asyncio.wait_for(asyncio.gather(watching, rest), timeout=60)
+        both = asyncio.gather(watching, rest)
+        watch = Progress(f"mission {mid}'s watchers to see it end")  # as long as frames come
+        while not both.done():
+            watch.check((first.frames, late[-1].frames))
+            await asyncio.sleep(0.05)
+        await both
         stored = (await api.get(f"{base}/robots")).json()
         record = (await api.get(base)).json()
     first.stored = stored  # type: ignore[attr-defined]

@@ -11,6 +11,7 @@ import pytest
 
 from tests.api.conftest import wait_for
 from tests.api.serve_process import ServeProcess
+from tests.progress import START_S
 
 
 def _children() -> dict[int, list[int]]:
@@ -62,7 +63,7 @@ def test_sweep_workers_die_with_a_killed_server(tmp_path: Path) -> None:
             found = [p for p, depth in _descendants(pid).items() if depth >= 2]
             return found if len(found) >= 2 else None
 
-        workers_seen = wait_for(workers, timeout=60)
+        workers_seen = wait_for(workers, timeout=START_S)  # processes starting
         family = _descendants(pid)
         assert all(_running(p) for p in workers_seen)
         os.kill(pid, signal.SIGKILL)

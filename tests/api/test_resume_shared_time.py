@@ -72,7 +72,7 @@ def _restart_and_finish(server: LiveServer, mid: int) -> tuple[Json, list[Json],
         resumed = api.post(f"{base}/resume")
         assert resumed.status_code == 200, resumed.text  # not 409 "replay differs …"
         assert resumed.json()["status"] == "running"
-        record = run_to_end(api, mid, timeout=90)
+        record = run_to_end(api, mid)
         assert record["status"] == "completed", record
         assert record["metrics"]["minerals_delivered"] == record["metrics"]["minerals_total"]
         return record, _replayable(api, base), _all_events(api, base)

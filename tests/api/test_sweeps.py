@@ -13,7 +13,8 @@ import pytest
 from sqlalchemy import text
 
 from app.db.session import make_engine
-from tests.api.conftest import LiveServer, wait_for
+from tests.api.conftest import LiveServer
+from tests.progress import wait_progress
 
 SMALL: dict[str, Any] = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
 
@@ -26,13 +27,22 @@ def _start(api: httpx.Client, **body: Any) -> dict[str, Any]:
 
 
 def _until(api: httpx.Client, sid: int, *statuses: str, seen: list[Any] | None = None) -> Any:
+    last: dict[str, Any] = {}
+
     def probe() -> dict[str, Any] | None:
         s: dict[str, Any] = api.get(f"/api/sweeps/{sid}").json()
+        last.update(s)
         if seen is not None:
             seen.append(s)
         return s if s["status"] in statuses else None
 
-    return wait_for(probe, timeout=60)
+    # any change in the record (a run done or failed, its status, elapsed time) is progress
+    return wait_progress(probe, lambda: repr(sorted(last.items())), f"sweep {sid} {statuses}")
+
+
+def _record(api: httpx.Client, sid: int) -> dict[str, Any]:
+    record: dict[str, Any] = api.get(f"/api/sweeps/{sid}").json()
+    return record
 
 
 def _stored_done(server: LiveServer, sid: int) -> int:
@@ -209,7 +219,9 @@ def test_cancel_then_resume_finishes_without_repeating_a_run(
     sid = _start(api, policies=["fcfs"], seeds="0-7")["id"]
     second = api.post("/api/sweeps", json={"seeds": "0"})
     assert second.status_code == 429 and "already running" in second.json()["detail"]
-    wait_for(lambda: _stored_done(server, sid) >= 1)  # progress reaches the database as it runs
+    wait_progress(  # progress reaches the database as it runs
+        lambda: _stored_done(server, sid) >= 1, lambda: _record(api, sid), f"sweep {sid}: a run"
+    )
     cancelled = api.post(f"/api/sweeps/{sid}/cancel")
     assert cancelled.status_code == 200, cancelled.text
     assert cancelled.json()["status"] == "cancelled"
@@ -228,7 +240,9 @@ def test_cancel_then_resume_finishes_without_repeating_a_run(
 def test_a_sweep_stopped_with_the_server_is_interrupted_and_resumes(server: LiveServer) -> None:
     with server.client() as api:
         sid = _start(api, policies=["nearest"], seeds="0-7")["id"]
-        wait_for(lambda: api.get(f"/api/sweeps/{sid}").json()["done"] >= 2)
+        wait_progress(
+            lambda: _record(api, sid)["done"] >= 2, lambda: _record(api, sid), f"sweep {sid}"
+        )
     server.restart()
     with server.client() as api:
         stopped = api.get(f"/api/sweeps/{sid}").json()

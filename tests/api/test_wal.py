@@ -38,7 +38,7 @@ def test_the_wal_is_truncated_during_and_after_a_mission_at_max_speed(tmp_path: 
             events = 0
             for seed in (1, 2, 3):
                 mid = api.post("/api/missions", json={"seed": seed, "speed": "max"}).json()["id"]
-                assert run_to_end(api, mid, timeout=120)["status"] == "completed"
+                assert run_to_end(api, mid)["status"] == "completed"
                 page = api.get(f"/api/missions/{mid}/events", params={"limit": 1}).json()
                 events += page["total"]
             assert events > 10_000

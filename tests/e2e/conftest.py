@@ -21,6 +21,8 @@ from typing import Any
 import httpx
 import pytest
 
+from tests.progress import REQUEST_S, START_S
+
 CHROMIUM = Path(os.environ.get("REGOLITH_CHROMIUM", "/usr/bin/chromium"))  # Debian's
 TOKEN = "e2e-operator-token-0123456789"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -106,7 +108,7 @@ class Server:
         ]
         with self.log.open("ab") as out:
             self.proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=out, stderr=out)
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + START_S  # as long as it is alive (tests/progress.py)
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 return False
@@ -145,7 +147,7 @@ class Server:
         return f"http://127.0.0.1:{self.port}"
 
     def api(self) -> httpx.Client:
-        return httpx.Client(base_url=f"{self.url}/api", headers=AUTH, timeout=30)
+        return httpx.Client(base_url=f"{self.url}/api", headers=AUTH, timeout=REQUEST_S)
 
 
 def running_server(factory: pytest.TempPathFactory, name: str) -> Iterator[Server]:

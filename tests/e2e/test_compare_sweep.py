@@ -8,6 +8,7 @@ from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ARTIFACTS, ConsoleLog
 from tests.e2e.test_compare_groups import FOUR, finish
+from tests.e2e.test_dashboard import wait_for
 
 
 def test_viewer_sees_the_sweep_form_disabled(page: Page) -> None:
@@ -32,7 +33,13 @@ def test_start_a_sweep_and_compare_its_results(
     progress = page.locator("#sweep-progress")
     expect(progress).to_be_visible()
     expect(progress).to_have_attribute("data-total", "2")
-    expect(progress).to_have_attribute("data-status", "completed", timeout=60_000)
+    wait_for(  # as long as the sweep's progress line changes (runs done, its ETA)
+        page,
+        "document.querySelector('#sweep-progress').dataset.status === 'completed'",
+        60,
+        "document.querySelector('#sweep-progress-text').textContent",
+    )
+    expect(progress).to_have_attribute("data-status", "completed")
     sid = progress.get_attribute("data-sweep")
     expect(page.locator("#compare-n")).to_have_text(
         f"· sweep {sid} · reference · 2 runs", timeout=10_000

@@ -13,13 +13,30 @@ import httpx
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import TOKEN, ConsoleLog
+from tests.progress import Progress, wait_progress
 
 Start = Callable[..., dict[str, Any]]
 
+#: A mission's work so far as the page shows it (sites found, minerals delivered, auctions,
+#: bids, its status): the progress measure of a wait for a mission's work (`wait_for`).
+WORK = """(() => { const r = window.__regolith || {}; const c = r.lastCounters || {};
+    return [c.sites_found, c.minerals_delivered, c.auctions, c.bids, r.status]; })()"""
 
-def wait_for(page: Page, js: str, timeout: float = 20) -> Any:
+
+def wait_for(page: Page, js: str, timeout: float = 20, progress: str | None = None) -> Any:
     """Poll a JS expression until it is truthy (page.wait_for_function would need unsafe-eval,
-    which the app's Content-Security-Policy rightly forbids)."""
+    which the app's Content-Security-Policy rightly forbids). With `progress` (a JS
+    expression, e.g. `WORK`), wait as long as its value keeps changing and fail only after
+    `timeout` seconds without a change (tests/progress.py): a loaded machine is slower."""
+    if progress is not None:
+        return wait_progress(
+            lambda: page.evaluate(js),
+            lambda: page.evaluate(progress),
+            js,
+            stall_s=timeout,
+            every=0.1,
+            sleep=lambda s: page.wait_for_timeout(s * 1000),
+        )
     deadline = time.monotonic() + timeout
     while True:
         value = page.evaluate(js)
@@ -109,7 +126,15 @@ def test_fail_robot_shows_failed_and_reauctions_its_task(
     busy = page.locator('#robot-table tr[data-type="excavator"]').filter(
         has=page.locator("td.task", has_text=re.compile(r"\S"))
     )
-    expect(busy.first).to_be_visible(timeout=60_000)
+    wait_for(
+        page,
+        "document.querySelector('#robot-table tr[data-type=excavator] td.task')"
+        " && [...document.querySelectorAll('#robot-table tr[data-type=excavator] td.task')]"
+        ".some((td) => td.textContent.trim() !== '')",
+        60,
+        WORK,
+    )
+    expect(busy.first).to_be_visible()
     page.locator('[data-speed="0"]').click()
     expect(page.locator("#live-status")).to_have_attribute("data-status", "paused")
     robots = api.get(f"/missions/{mission['id']}/robots").json()
@@ -125,8 +150,9 @@ def test_fail_robot_shows_failed_and_reauctions_its_task(
     expect(row).to_have_attribute("data-state", "failed", timeout=10_000)
     page.locator('[data-speed="100"]').click()  # resume, fast: detection takes 30 s of sim time
     # the failure is noticed (missed heartbeats) and its task is auctioned again
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
+    watch = Progress(f"a new auction for {task} after {name} failed", 60)
+    while True:
+        watch.check(page.evaluate(WORK))
         seen = cards.evaluate_all(
             "els => els.map(e => [e.dataset.auctionId, e.dataset.taskType, e.dataset.location])"
         )
@@ -140,8 +166,6 @@ def test_fail_robot_shows_failed_and_reauctions_its_task(
         if fresh:
             break
         page.wait_for_timeout(250)
-    else:
-        raise AssertionError(f"no new auction for {task} after {name} failed")
     page.locator('[data-speed="0"]').click()
 
 

@@ -11,7 +11,7 @@ import pytest
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import REPO
-from tests.e2e.test_dashboard import Start, next_robot_poll, open_live, wait_for
+from tests.e2e.test_dashboard import WORK, Start, next_robot_poll, open_live, wait_for
 
 pytestmark = pytest.mark.skipif(
     os.environ.get("REGOLITH_DOCS_SCREENSHOT") != "1",
@@ -24,7 +24,7 @@ def test_live_view_screenshot_for_the_readme(operator: Page, start_mission: Star
     mission = start_mission(policy="coalition", seed=7, speed=60)
     open_live(page, mission["id"])
     # mid-mission: most sites found, minerals flowing, pairs visible
-    wait_for(page, "(window.__regolith.lastCounters || {}).minerals_delivered >= 22", timeout=90)
+    wait_for(page, "(window.__regolith.lastCounters || {}).minerals_delivered >= 22", 60, WORK)
     page.locator('[data-speed="0"]').click()
     expect(page.locator("#live-status")).to_have_attribute("data-status", "paused")
     next_robot_poll(page, mission["id"])  # the robot list as paused

@@ -11,7 +11,7 @@ from playwright.sync_api import Page, expect
 
 from engine import load_scenario
 from tests.e2e.conftest import ConsoleLog, Server
-from tests.e2e.test_dashboard import Start, wait_for
+from tests.e2e.test_dashboard import WORK, Start, wait_for
 from tests.e2e.test_live_deltas import _snapshot
 
 ENERGY = Path(__file__).resolve().parents[2] / "scenarios" / "realism" / "energy.toml"
@@ -35,7 +35,8 @@ def test_battery_bars_and_the_charge_column_show_the_streamed_charge(
     wait_for(
         page,
         "window.__regolith.stream.robots.some((r) => r.charge != null && r.charge < 0.5)",
-        timeout=60,
+        60,
+        WORK,
     )
     api.post(f"/missions/{mid}/pause").raise_for_status()
     expect(page.locator("#live-status")).to_have_text("paused")

@@ -15,8 +15,9 @@ import pytest
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog, Server
-from tests.e2e.test_dashboard import Start, free_point, open_live, wait_for
+from tests.e2e.test_dashboard import WORK, Start, free_point, open_live, wait_for
 from tests.field.serial import one_field_mission_at_a_time
+from tests.progress import STALL_S
 
 
 @pytest.mark.fleet
@@ -38,12 +39,12 @@ def _field_mission_on_the_dashboard(
     # a new excavator joins (a new agent process) mid-mission and must win work: while the
     # scouts still find sites (the last ones by ~1300 s; joining later, it raced the last
     # excavation auctions and could find none left)
-    wait_for(page, "window.__regolith.lastCounters.sites_found >= 2", timeout=60)
+    wait_for(page, "window.__regolith.lastCounters.sites_found >= 2", STALL_S, WORK)
     res = api.post(f"/missions/{mid}/robots", json={"type": "excavator"})
     assert res.status_code in (200, 201), res.text
     newcomer = res.json()["name"]
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=30_000)
-    wait_for(page, "window.__regolith.lastCounters.minerals_delivered >= 3", timeout=60)
+    wait_for(page, "window.__regolith.lastCounters.minerals_delivered >= 3", STALL_S, WORK)
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
     # its robots keep the wall clock: a pause or a new speed is refused, not shown while
@@ -63,7 +64,8 @@ def _field_mission_on_the_dashboard(
         """window.__regolith.auctions.find(a => a.kind === 'excavator_hauler'
             && a.status === 'closed' && a.allocated_to && !a.reauction_of
             && window.__regolith.stream.t - a.closed_at < 20)""",
-        timeout=30,
+        STALL_S,
+        WORK,
     )
     victim = won["allocated_to"]
     res = api.post(f"/missions/{mid}/robots/{victim}/disable", json={"mode": "abrupt"})
@@ -86,23 +88,26 @@ def _field_mission_on_the_dashboard(
         page,
         f"""window.__regolith.auctions.some(a => a.id === '{injected}' && a.kind === 'operator'
             && a.status === 'closed' && (a.allocated_to || '').startsWith('hauler-'))""",
-        timeout=60,
+        STALL_S,
+        WORK,
     )
     # the victim's transport is re-auctioned (its peers notice the silence) and won by another
     wait_for(
         page,
         f"""window.__regolith.auctions.some(a => a.reauction_of === '{won["id"]}'
             && a.status === 'closed' && a.allocated_to && a.allocated_to !== '{victim}')""",
-        timeout=90,
+        STALL_S,
+        WORK,
     )
     wait_for(
         page,
         f"""window.__regolith.auctions.some(a => a.task_type === 'excavate'
             && a.status === 'closed' && a.allocated_to === '{newcomer}')""",
-        timeout=90,
+        STALL_S,
+        WORK,
     )
     # to the end: every mineral delivered, the killed hauler's load (if it had one) too
-    wait_for(page, "window.__regolith.status !== 'running'", timeout=180)
+    wait_for(page, "window.__regolith.status !== 'running'", STALL_S, WORK)
     assert console.errors == []
     detail = api.get(f"/missions/{mid}").json()
     assert detail["status"] == "completed", detail

@@ -10,7 +10,7 @@ from typing import Any
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ARTIFACTS, REPO
-from tests.e2e.test_dashboard import Start, next_robot_poll, open_live, wait_for
+from tests.e2e.test_dashboard import WORK, Start, next_robot_poll, open_live, wait_for
 
 DOCS = os.environ.get("REGOLITH_DOCS_SCREENSHOT") == "1"
 SIZES = {"wide": (1280, 800), "laptop": (1024, 768), "phone": (390, 844)}
@@ -95,7 +95,7 @@ def test_layout_at_three_sizes(operator: Page, start_mission: Start, api: Any) -
     mission = start_mission(policy="coalition", seed=7, speed=120)
     mid = mission["id"]
     open_live(page, mid)
-    wait_for(page, "(window.__regolith.lastCounters || {}).minerals_delivered >= 12", timeout=90)
+    wait_for(page, "(window.__regolith.lastCounters || {}).minerals_delivered >= 12", 60, WORK)
     plant = page.evaluate("window.__regolith.map.plant")
     task = {"type": "excavate", "location": [plant["x"] + 12, plant["y"] + 10]}
     assert api.post(f"/missions/{mid}/tasks", json=task).status_code in (200, 201)
@@ -106,7 +106,8 @@ def test_layout_at_three_sizes(operator: Page, start_mission: Start, api: Any) -
     wait_for(
         page,
         "document.querySelector('#auction-feed li[data-kind=operator][data-status=closed]')",
-        timeout=60,
+        60,
+        WORK,
     )
     page.locator('[data-speed="0"]').click()
     expect(page.locator("#live-status")).to_have_attribute("data-status", "paused")

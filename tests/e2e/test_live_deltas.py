@@ -51,7 +51,7 @@ def test_a_scaled_mission_on_deltas_shows_the_streamed_state_and_its_stored_end(
     mid = mission["id"]
     page.goto(f"/#/live/{mid}")
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "120", timeout=30_000)
-    wait_for(page, "window.__regolith.frames >= 30", timeout=60)
+    wait_for(page, "window.__regolith.frames >= 30", 60, "window.__regolith.frames")
     api.post(f"/missions/{mid}/pause").raise_for_status()
     expect(page.locator("#live-status")).to_have_text("paused")
     snap = _snapshot(server, mid)  # its join sends the page the last delta up to `seq`
@@ -80,7 +80,7 @@ def test_a_scaled_mission_on_deltas_shows_the_streamed_state_and_its_stored_end(
     api.put(f"/missions/{mid}/speed", json={"speed": "max"}).raise_for_status()
     api.post(f"/missions/{mid}/resume").raise_for_status()
     before = page.evaluate("window.__regolith.stream.seq")
-    wait_for(page, f"window.__regolith.stream.seq > {before + 10}", timeout=30)
+    wait_for(page, f"window.__regolith.stream.seq > {before + 10}", 60, "window.__regolith.t")
     api.post(f"/missions/{mid}/stop").raise_for_status()
     expect(page.locator("#live-status")).to_have_text("stopped", timeout=30_000)
     wait_for(page, "window.__regolith.final === true", timeout=60)

@@ -8,7 +8,7 @@ from typing import Any
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import TOKEN, ConsoleLog
-from tests.e2e.test_dashboard import Start, open_live, wait_for
+from tests.e2e.test_dashboard import WORK, Start, open_live, wait_for
 
 
 def _all_events(api: Any, mission_id: int, kind: str) -> list[dict[str, Any]]:
@@ -74,7 +74,8 @@ def test_a_mission_run_to_the_end_at_max_shows_its_stored_ending(
     mission = start_mission(seed=5, speed=10, planner="straight")  # the view, not the paths
     open_live(page, mission["id"])
     page.locator('[data-speed="max"]').click()
-    expect(page.locator("#live-status")).to_have_text("completed", timeout=120_000)
+    wait_for(page, "window.__regolith.status === 'completed'", 60, WORK)
+    expect(page.locator("#live-status")).to_have_text("completed")
     _expect_stored_ending(page, api, mission["id"])
     # opened afresh after the end: the same, from the record
     page.goto("/#/missions")

@@ -4,7 +4,6 @@ API's `/state` say."""
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import httpx
@@ -12,16 +11,19 @@ from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ARTIFACTS, ConsoleLog
 from tests.e2e.test_dashboard import wait_for
+from tests.progress import wait_progress
 
 
 def _until(api: httpx.Client, mid: int, done: Any) -> dict[str, Any]:
-    deadline = time.monotonic() + 60
-    while True:
+    """Poll the mission until `done`, as long as its simulated time moves (tests/progress.py)."""
+    seen: dict[str, Any] = {}
+
+    def probe() -> dict[str, Any] | None:
         m: dict[str, Any] = api.get(f"/missions/{mid}").json()
-        if done(m):
-            return m
-        assert time.monotonic() < deadline, m
-        time.sleep(0.05)
+        seen.update(m)
+        return m if done(m) else None
+
+    return wait_progress(probe, lambda: (seen.get("status"), seen.get("sim_time")), str(done))
 
 
 def _events(api: httpx.Client, mid: int, kind: str) -> list[dict[str, Any]]:

@@ -8,6 +8,7 @@ from fastapi import APIRouter
 
 from app.api.routes import (
     auth,
+    export,
     health,
     history,
     live,
@@ -31,5 +32,16 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
     ]
 }
 api_router = APIRouter(prefix="/api", responses=_ERRORS)
-for _module in (health, auth, policies, scenarios, missions, robots, history, playback, live):
+for _module in (
+    health,
+    auth,
+    policies,
+    scenarios,
+    missions,
+    robots,
+    history,
+    playback,
+    export,
+    live,
+):
     api_router.include_router(_module.router)
