@@ -24,22 +24,18 @@ import pytest
 
 from tests.api.conftest import LiveServer, all_pages, make_settings
 from tests.field.serial import one_field_mission_at_a_time
-
-STALL_S = 120.0
-"""A field mission whose simulated time does not move for this long (wall) has stalled."""
+from tests.progress import REQUEST_S, wait_progress
 
 
 def _until_done(api: httpx.Client, mid: int) -> dict[str, Any]:
-    """Wait while the mission makes progress; fail only if it stops moving."""
-    last, moved = -1.0, time.monotonic()
-    while True:
-        row = api.get(f"/api/missions/{mid}").json()
-        if row["status"] != "running":
-            return row
-        if row["sim_time"] > last:
-            last, moved = row["sim_time"], time.monotonic()
-        assert time.monotonic() - moved < STALL_S, f"mission {mid} stalled at t={last}"
-        time.sleep(0.5)
+    """The mission's record once it ends; fails only if its simulated time stops moving."""
+    row: dict[str, Any] = {}
+
+    def ended() -> dict[str, Any] | None:
+        row.update(api.get(f"/api/missions/{mid}").json())
+        return dict(row) if row["status"] != "running" else None
+
+    return wait_progress(ended, lambda: row.get("sim_time"), f"field mission {mid}", every=0.5)
 
 
 def _events(api: httpx.Client, mid: int) -> list[dict[str, Any]]:
@@ -70,7 +66,7 @@ class Watch(threading.Thread):
                     self.frames.append(time.monotonic())
                 if len(self.frames) % 10 == 0:
                     t0 = time.monotonic()
-                    assert api.get("/api/health", timeout=30).status_code == 200
+                    assert api.get("/api/health", timeout=REQUEST_S).status_code == 200
                     self.health.append(time.monotonic() - t0)
 
 
@@ -106,8 +102,11 @@ def _attacked(live: LiveServer, tmp_path: Path) -> None:
         cred.write_text(fleet.credential("hauler-7").to_json())
         watch = Watch(live, other)
         watch.start()
-        while api.get(f"/api/missions/{mid}").json()["sim_time"] < 150:
-            time.sleep(0.2)
+        wait_progress(
+            lambda: api.get(f"/api/missions/{mid}").json()["sim_time"] >= 150,
+            lambda: api.get(f"/api/missions/{mid}").json()["sim_time"],
+            "the field mission to start",
+        )
         events_before = api.get(f"/api/missions/{other}/events", params={"limit": 1}).json()
         attackers = [_attack(fleet.endpoint, fleet.mission, c) for c in (None, cred)]
         outs = [json.loads(p.communicate(timeout=600)[0]) for p in attackers]
