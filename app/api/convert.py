@@ -7,7 +7,7 @@ from sqlalchemy import inspect
 from app.api.schemas import ActionRead, AuctionRead, AwardRead, BidRead, MissionDetail, MissionRead
 from app.db.models import Auction
 from app.db.models import Mission as MissionRow
-from app.services.missions import LiveState, policies_in_effect
+from app.services.live_state import LiveState, policies_in_effect
 from experiments.spec import scenario_data_hash
 
 LIVE = ("running", "paused")

@@ -8,8 +8,7 @@ then answer. Streaming follows from the engine's own events and `status` message
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from app.db.models import Mission as MissionRow
@@ -29,6 +28,7 @@ from app.services.field_rules import (
     processes_of,
     team_processes,
 )
+from app.services.live_state import LiveState, live_state
 from app.services.replay import revive
 from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
@@ -40,44 +40,6 @@ from engine import Mission, Scenario, reference_scenario
 def speed_value(speed: Speed) -> float | None:
     """API speed → runner speed (None is "max")."""
     return None if speed == "max" else float(speed)
-
-
-@dataclass(frozen=True)
-class LiveState:
-    """A consistent reading of a live mission, taken under the gate."""
-
-    status: str
-    policy: str
-    speed: float | None
-    sim_time: float
-    metrics: dict[str, Any] | None = None
-    policies: tuple[str, ...] = ()
-
-
-def policies_in_effect(initial: str, actions: Iterable[tuple[str, dict[str, Any]]]) -> list[str]:
-    """The policies a run used, in order: the initial one, then each switch to another (a
-    switch back counts: fcfs → coalition → fcfs is three). More than one: a mixed run."""
-    used = [initial]
-    for kind, args in actions:
-        new = args.get("policy")
-        if kind == "set_policy" and isinstance(new, str) and new != used[-1]:
-            used.append(new)
-    return used
-
-
-def live_state(lm: LiveMission, metrics: bool = False) -> LiveState:
-    """Read `lm` (the caller holds the gate)."""
-    m = lm.mission
-    return LiveState(
-        status=lm.status,
-        policies=tuple(
-            policies_in_effect(m.initial_policy, ((a["kind"], a["args"]) for a in m.actions))
-        ),
-        policy=lm.mission.policy,
-        speed=lm.speed,
-        sim_time=float(lm.mission.now),
-        metrics=lm.mission.metrics() if metrics else None,
-    )
 
 
 class MissionService:

@@ -41,7 +41,8 @@ from app.live.gate import Gate
 from app.live.records import auction_dict, stream_state
 from app.services.cursors import evictions, gap_to_fill, pick
 from app.services.errors import Conflict, Invalid
-from app.services.missions import LiveState, MissionService
+from app.services.live_state import LiveState
+from app.services.missions import MissionService
 from app.settings import Settings
 from engine import Mission, parse_scenario
 from engine.mission import PLANNERS

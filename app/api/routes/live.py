@@ -12,7 +12,7 @@ from app.db.models import Mission as MissionRow
 from app.live.hub import CLOSE_POLICY, serve_viewer
 from app.security import token_matches
 from app.services.errors import Conflict, LimitExceeded, NotFound
-from app.services.missions import LiveState
+from app.services.live_state import LiveState
 
 router = APIRouter(tags=["live"])
 
