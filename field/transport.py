@@ -23,7 +23,18 @@ import numpy as np
 import zenoh
 
 from engine.liveness import Liveness
-from engine.messages import Handoff, Heartbeat, Hello, Message, PolicyChange
+from engine.messages import (
+    Ack,
+    Announce,
+    Award,
+    Bid,
+    Close,
+    Handoff,
+    Heartbeat,
+    Hello,
+    Message,
+    PolicyChange,
+)
 from field.link import Link
 from field.trust import Rejected
 from field.wire import decode, encode, messages_selector
@@ -141,9 +152,16 @@ class Inbox:
 
 
 def may_send(msg: Message, role: str) -> bool:
-    """What a robot of `role` may say on the bus beyond speaking in its own name: its
-    heartbeats and hellos carry its own type, only scouts hand over search cells, and a
-    policy change is never a robot's (mission control commands it)."""
+    """What a robot of `role` may say on the bus beyond speaking in its own name: an
+    auction's announcement, award and close only of its own auctions, a bid and an
+    acknowledgement only as the bidder, heartbeats and hellos of its own type, search cells
+    handed over only by scouts, and never a policy change (mission control commands it)."""
+    if isinstance(msg, Announce | Award | Close):
+        return msg.auctioneer == msg.sender and msg.auction_id.startswith(f"{msg.sender}/")
+    if isinstance(msg, Bid):
+        return msg.bidder == msg.sender
+    if isinstance(msg, Ack):
+        return msg.winner == msg.sender
     if isinstance(msg, Heartbeat | Hello):
         return msg.rtype == role
     if isinstance(msg, Handoff):

@@ -27,15 +27,23 @@ from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import REQUEST_S, wait_progress
 
 
-def _until_done(api: httpx.Client, mid: int) -> dict[str, Any]:
-    """The mission's record once it ends; fails only if its simulated time stops moving."""
-    row: dict[str, Any] = {}
+def _until_done(api: httpx.Client, mid: int, runner: Any) -> dict[str, Any]:
+    """The mission's record once it ends; fails only if the field stops changing (minerals
+    delivered, sites found, cells scanned: a field mission's clock always moves)."""
 
     def ended() -> dict[str, Any] | None:
-        row.update(api.get(f"/api/missions/{mid}").json())
-        return dict(row) if row["status"] != "running" else None
+        row: dict[str, Any] = api.get(f"/api/missions/{mid}").json()
+        return row if row["status"] != "running" else None
 
-    return wait_progress(ended, lambda: row.get("sim_time"), f"field mission {mid}", every=0.5)
+    def field() -> Any:
+        lm = runner.live.get(mid)
+        return None if lm is None else lm.mission.fleet.world.status()
+
+    def progress() -> Any:
+        st = field()
+        return st and (st["delivered"], st["sites_found"], st["scanned"], st["aboard"])
+
+    return wait_progress(ended, progress, f"field mission {mid}", every=0.5)
 
 
 def _events(api: httpx.Client, mid: int) -> list[dict[str, Any]]:
@@ -111,7 +119,7 @@ def _attacked(live: LiveServer, tmp_path: Path) -> None:
         attackers = [_attack(fleet.endpoint, fleet.mission, c) for c in (None, cred)]
         outs = [json.loads(p.communicate(timeout=600)[0]) for p in attackers]
         frames_in_attack = len(watch.frames)
-        row = _until_done(api, mid)
+        row = _until_done(api, mid, runner)
         watch.stop.set()
         watch.join(timeout=60)
 

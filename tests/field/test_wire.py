@@ -182,3 +182,67 @@ def test_zenoh_bus_between_two_sessions() -> None:
     finally:
         b.close()
         a.close()
+
+
+def test_a_member_speaks_only_for_what_is_its_own() -> None:
+    """Signed in its own name is not enough: an auction's messages only from its
+    auctioneer, a bid and an acknowledgement only from the bidder, a heartbeat of its own
+    type, no policy change from a robot (field.transport.may_send)."""
+    from engine.messages import Ack, Announce, Bid, Close, Heartbeat, PolicyChange
+    from field.transport import may_send
+
+    loc = (1.0, 2.0)
+    own = Close(
+        sender="excavator-1",
+        auction_id="excavator-1/a1",
+        auctioneer="excavator-1",
+        task_type="transport",
+        location=loc,
+        task_id="t",
+        allocated_to="hauler-1",
+    )
+    assert may_send(own, "excavator")
+    for msg, role in (
+        (own.model_copy(update={"sender": "hauler-7", "auctioneer": "hauler-7"}), "hauler"),
+        (
+            Announce(
+                sender="hauler-7",
+                auction_id="excavator-1/a2",
+                auctioneer="hauler-7",
+                task_type="transport",
+                location=loc,
+                task_id="t",
+                opened_at=0.0,
+            ),
+            "hauler",
+        ),
+        (
+            Bid(
+                sender="hauler-7",
+                auction_id="excavator-1/a1",
+                auctioneer="excavator-1",
+                bidder="hauler-1",
+                location=loc,
+                utility=1e300,
+                round=0,
+            ),
+            "hauler",
+        ),
+        (
+            Ack(
+                sender="hauler-7",
+                auction_id="excavator-1/a1",
+                auctioneer="excavator-1",
+                winner="hauler-1",
+                location=loc,
+                accepted=False,
+            ),
+            "hauler",
+        ),
+        (
+            Heartbeat(sender="hauler-7", rtype="excavator", t=0.0, x=0.0, y=0.0, state="idle"),
+            "hauler",
+        ),
+        (PolicyChange(sender="operator", policy="central-greedy"), "operator"),
+    ):
+        assert not may_send(msg, role), msg
