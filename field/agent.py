@@ -286,7 +286,7 @@ class Agent:
         req = self._from_control(self.link.take_query(query), "an operator task")
         if req is None:
             return  # (not answered: the asker is no one to answer)
-        task = decode_inject({k: v for k, v in req.items() if k != "rid"})
+        task = decode_inject({k: v for k, v in req.items() if k not in ("rid", "until")})
         reply: dict[str, Any] = {"ok": False, "error": "malformed operator task"}
         if task is not None and not self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
             reply = {"ok": False, "error": "busy"}  # mission control asks again

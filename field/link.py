@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import time
 from typing import Any
 
 import zenoh
@@ -36,6 +37,7 @@ class Link:
         self.sealer = Sealer(cred)
         self.opener = Opener(cred.mission, cred.anchor, where)
         self._rids = itertools.count(1)
+        self.late = 0  # queries that came after their asker stopped waiting
 
     @property
     def rejections(self) -> dict[str, Any]:
@@ -57,7 +59,9 @@ class Link:
     ) -> dict[str, Any] | None:
         """The reply signed by `expect` to this request, or None if none came in time."""
         rid = f"{self.name}:{self.cred.gen}:{next(self._rids)}"
-        payload = self.seal(key, {**req, "rid": rid})
+        # `until`: the wall time past which nobody waits for the answer (a busy answerer
+        # skips it rather than spend its time on what will be thrown away)
+        payload = self.seal(key, {**req, "rid": rid, "until": time.time() + timeout})
         replies = self.session.get(
             key,
             payload=payload,
@@ -95,9 +99,17 @@ class Link:
         return opened, data
 
     def take_query(self, query: Any) -> tuple[Opened, dict[str, Any]] | None:
-        """An incoming query's checked request; None (counted, not answered) otherwise."""
+        """An incoming query's checked request; None (counted, not answered) otherwise, and
+        None for one its asker no longer waits for (`late`: under a backlog, answering
+        queries already given up on, each asked again, kept an answerer behind for good)."""
         payload = query.payload.to_bytes() if query.payload is not None else b""
-        return self.open_json(str(query.key_expr), payload)
+        got = self.open_json(str(query.key_expr), payload)
+        if got is not None:
+            until = got[1].get("until")
+            if isinstance(until, int | float) and time.time() > until:
+                self.late += 1
+                return None
+        return got
 
     def reply(self, query: Any, req: dict[str, Any], data: dict[str, Any]) -> None:
         key = str(query.key_expr)

@@ -124,3 +124,28 @@ def test_random_bytes_are_rejected_never_raised(payload: bytes) -> None:
     opener = Opener("m1", Authority("m1").anchor, "fuzz")
     assert opener.admit(KEY, payload) is None
     assert opener.admit(KEY, b"RGF1" + payload) is None
+
+
+def test_a_query_its_asker_gave_up_on_is_not_answered() -> None:
+    """Under a backlog, answering queries already given up on (each asked again) kept the
+    world service behind for good: a query past its `until` is skipped, and counted."""
+    from types import SimpleNamespace
+
+    from field.link import Link
+    from field.wire import encode_json
+
+    authority = Authority("m1")
+    link = Link(None, authority.control, "test")  # type: ignore[arg-type]
+    asker = Sealer(authority.issue("hauler-1", "hauler"))
+    key = "regolith/m1/world"
+
+    def query(until: float) -> SimpleNamespace:
+        body = encode_json({"op": "status", "rid": "r", "until": until})
+        payload = SimpleNamespace(to_bytes=lambda: asker.seal(key, body))
+        return SimpleNamespace(payload=payload, key_expr=key)
+
+    import time
+
+    assert link.take_query(query(time.time() + 2.0)) is not None
+    assert link.take_query(query(time.time() - 0.1)) is None
+    assert link.late == 1 and link.opener.rejections.total == 0
