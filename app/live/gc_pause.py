@@ -57,6 +57,7 @@ class GcPause:
         self._drops = 0
         self._lock = threading.Lock()
         self._base = 0  # frozen objects after the last full collection
+        self._count = 0  # frozen objects at the last freeze
         self.full = 0  # full collections run while busy (for tests and metrics)
         self.full_seconds = 0.0  # and the time they took
         self._took = 0.0
@@ -80,7 +81,7 @@ class GcPause:
             self._collect_all(now)
             gc.freeze()
             self._frozen = True
-            self._base = gc.get_freeze_count()
+            self._base = self._count = gc.get_freeze_count()
             self.full += 1
             self._last = now
         elif busy and now - self._last >= self.every_s:
@@ -88,9 +89,11 @@ class GcPause:
             gc.freeze()
             self._frozen = True
             self._last = now
+            # counting the frozen objects walks them all: once per freeze, never per tick
+            self._count = gc.get_freeze_count()
         elif not busy and self._frozen:
             self.release()
-        elif not busy:
+        elif not busy and self._drops:
             self.dropped(-self._drops)  # nothing frozen: CPython's own collections reclaim them
 
     def _due(self, now: float) -> bool:
@@ -100,7 +103,7 @@ class GcPause:
             self._drops and gap >= max(LATE_S, least)
         ):
             return True
-        return self._frozen and gc.get_freeze_count() > max(FLOOR, 2 * self._base)
+        return self._frozen and self._count > max(FLOOR, 2 * self._base)
 
     def _collect_all(self, now: float) -> None:
         with self._lock:
@@ -115,7 +118,7 @@ class GcPause:
     def release(self) -> None:
         self._collect_all(perf_counter())
         self._frozen = False
-        self._base = 0
+        self._base = self._count = 0
 
     def stop(self) -> None:
         self.release()
