@@ -27,6 +27,8 @@ freeze again) also runs while busy when
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import gc
 import sys
 import threading
@@ -43,6 +45,18 @@ COST_RATIO = 9.0
 LATE_S = 10.0
 #: frozen objects below which growth never calls for a full collection
 FLOOR = 200_000
+
+
+def _trimmer() -> ctypes._CFuncPtr | None:  # type: ignore[name-defined]
+    """glibc's `malloc_trim`, which hands freed heap pages back to the system (elsewhere
+    None: the memory is then reused by the process, not returned)."""
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim  # type: ignore[no-any-return]
+    except (OSError, AttributeError):
+        return None
+
+
+_TRIM = _trimmer()
 
 
 class GcPause:
@@ -111,6 +125,8 @@ class GcPause:
         gc.unfreeze()
         t0 = perf_counter()
         gc.collect()
+        if _TRIM is not None:
+            _TRIM(0)  # the dropped engines' pages back to the system: RSS falls after a load
         self._took = perf_counter() - t0
         self.full_seconds += self._took
         self._last_full = now
