@@ -27,6 +27,8 @@ freeze again) also runs while busy when
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import gc
 import sys
 import threading
@@ -45,6 +47,18 @@ LATE_S = 10.0
 FLOOR = 200_000
 
 
+def _trimmer() -> ctypes._CFuncPtr | None:  # type: ignore[name-defined]
+    """glibc's `malloc_trim`, which hands freed heap pages back to the system (elsewhere
+    None: the memory is then reused by the process, not returned)."""
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim  # type: ignore[no-any-return]
+    except (OSError, AttributeError):
+        return None
+
+
+_TRIM = _trimmer()
+
+
 class GcPause:
     """Freeze old objects while busy; collect in full when idle, or when garbage builds up."""
 
@@ -57,6 +71,7 @@ class GcPause:
         self._drops = 0
         self._lock = threading.Lock()
         self._base = 0  # frozen objects after the last full collection
+        self._count = 0  # frozen objects at the last freeze
         self.full = 0  # full collections run while busy (for tests and metrics)
         self.full_seconds = 0.0  # and the time they took
         self._took = 0.0
@@ -80,7 +95,7 @@ class GcPause:
             self._collect_all(now)
             gc.freeze()
             self._frozen = True
-            self._base = gc.get_freeze_count()
+            self._base = self._count = gc.get_freeze_count()
             self.full += 1
             self._last = now
         elif busy and now - self._last >= self.every_s:
@@ -88,9 +103,11 @@ class GcPause:
             gc.freeze()
             self._frozen = True
             self._last = now
+            # counting the frozen objects walks them all: once per freeze, never per tick
+            self._count = gc.get_freeze_count()
         elif not busy and self._frozen:
             self.release()
-        elif not busy:
+        elif not busy and self._drops:
             self.dropped(-self._drops)  # nothing frozen: CPython's own collections reclaim them
 
     def _due(self, now: float) -> bool:
@@ -100,7 +117,7 @@ class GcPause:
             self._drops and gap >= max(LATE_S, least)
         ):
             return True
-        return self._frozen and gc.get_freeze_count() > max(FLOOR, 2 * self._base)
+        return self._frozen and self._count > max(FLOOR, 2 * self._base)
 
     def _collect_all(self, now: float) -> None:
         with self._lock:
@@ -108,6 +125,8 @@ class GcPause:
         gc.unfreeze()
         t0 = perf_counter()
         gc.collect()
+        if _TRIM is not None:
+            _TRIM(0)  # the dropped engines' pages back to the system: RSS falls after a load
         self._took = perf_counter() - t0
         self.full_seconds += self._took
         self._last_full = now
@@ -115,7 +134,7 @@ class GcPause:
     def release(self) -> None:
         self._collect_all(perf_counter())
         self._frozen = False
-        self._base = 0
+        self._base = self._count = 0
 
     def stop(self) -> None:
         self.release()
