@@ -170,14 +170,16 @@ def test_a_hostile_mission_ends_alone(server: LiveServer, plan: dict[str, Any]) 
         wait_for(lambda: _events(api, other) > before)
 
 
-_OTHER: dict[str, int] = {}
+_OTHER: dict[str, int] = {}  # server -> its other mission
 
 
 def _ensure_other(api: Any) -> int:
-    """One simulated mission beside every hostile one, at a pace that lasts the test."""
-    if "id" not in _OTHER or api.get(f"/api/missions/{_OTHER['id']}").json()["status"] != "running":
-        _OTHER["id"] = api.post("/api/missions", json={"seed": 5, "speed": 2}).json()["id"]
-    return _OTHER["id"]
+    """One simulated mission beside every hostile one (one per server: each database), at a
+    pace that lasts the test."""
+    key = str(api.base_url)
+    if key not in _OTHER or api.get(f"/api/missions/{_OTHER[key]}").json()["status"] != "running":
+        _OTHER[key] = api.post("/api/missions", json={"seed": 5, "speed": 2}).json()["id"]
+    return _OTHER[key]
 
 
 def test_shutdown_flushes_the_other_mission_after_a_hostile_one(tmp_path: Path) -> None:

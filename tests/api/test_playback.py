@@ -17,7 +17,7 @@ from typing import Any
 
 import httpx
 
-from app.live.runner import stream_state
+from app.live.records import stream_state
 from app.services.cursors import evictions, gap_to_fill, pick
 from engine import Mission, reference_scenario
 from tests.api.conftest import LiveServer, make_settings, run_to_end, wait_for
