@@ -58,7 +58,20 @@ def test_compare_columns_fit_at_1440(
         expect(row).to_be_visible()
         makespan = row.locator("td").last
         expect(makespan).to_have_text(str(round(m["metrics"]["makespan_s"])))
-        assert _inside(makespan.bounding_box(), page.locator(".compare-pick").bounding_box())
+        # measured in one go in the page (the table may be redrawn between two look-ups)
+        geometry = page.wait_for_function(
+            """(id) => {
+                const td = document.querySelector(
+                    `#compare-table tr[data-mission="${id}"] td:last-child`);
+                const box = document.querySelector('.compare-pick');
+                if (!td || !box || td.offsetParent === null) return null;
+                const r = e => { const b = e.getBoundingClientRect();
+                    return {x: b.x, y: b.y, width: b.width, height: b.height}; };
+                return [r(td), r(box)];
+            }""",
+            arg=m["id"],
+        ).json_value()
+        assert _inside(*geometry), geometry
     wrap = page.locator(".compare-pick")
     assert wrap.evaluate("w => w.scrollWidth <= w.clientWidth"), "the table overflows its panel"
     clipped = page.evaluate(
