@@ -10,6 +10,7 @@ from typing import Annotated, Any
 import typer
 
 from app.cli.errors import fail
+from app.cli.options import DataDir, DbUrl
 from app.cli.serve import _settings
 
 
@@ -18,13 +19,8 @@ def export(
     out: Annotated[
         Path, typer.Option("--out", metavar="FILE", help="The MCAP file to write (.mcap).")
     ],
-    db: Annotated[
-        str | None,
-        typer.Option("--db", metavar="URL", help="SQLAlchemy URL (default: SQLite in --data-dir)."),
-    ] = None,
-    data_dir: Annotated[
-        Path | None, typer.Option("--data-dir", metavar="DIR", help="Data folder (default ./data).")
-    ] = None,
+    db: DbUrl = None,
+    data_dir: DataDir = None,
 ) -> None:
     """Write a stored mission (simulated or field) as an MCAP file for Foxglove and other
     robotics tools: poses and robot states (simulated missions, rebuilt by replay), every

@@ -100,17 +100,21 @@ def _scenario(path: Path | None) -> Any:
         fail("fleet run", str(exc))
 
 
+Seed = Annotated[
+    int, typer.Option(metavar="N", min=0, help="Seed of the world and every random draw")
+]
+ScenarioFile = Annotated[
+    Path | None,
+    typer.Option(metavar="FILE", help="Scenario file (.toml or .json); default: reference"),
+]
+
+
 def fleet_run(
     policy: Annotated[
         str, typer.Option(metavar="POLICY", help="Policy number or name (decentralized)")
     ],
-    seed: Annotated[
-        int, typer.Option(metavar="N", min=0, help="Seed of the world and every random draw")
-    ] = 0,
-    scenario: Annotated[
-        Path | None,
-        typer.Option(metavar="FILE", help="Scenario file (.toml or .json); default: reference"),
-    ] = None,
+    seed: Seed = 0,
+    scenario: ScenarioFile = None,
     speed: Annotated[
         float, typer.Option(metavar="K", help="Simulated seconds per wall second", min=1)
     ] = 20.0,
@@ -212,13 +216,8 @@ def fleet_up(
     policy: Annotated[
         str, typer.Option(metavar="POLICY", help="Policy number or name (decentralized)")
     ] = "nearest",
-    seed: Annotated[
-        int, typer.Option(metavar="N", min=0, help="Seed of the world and every random draw")
-    ] = 0,
-    scenario: Annotated[
-        Path | None,
-        typer.Option(metavar="FILE", help="Scenario file (.toml or .json); default: reference"),
-    ] = None,
+    seed: Seed = 0,
+    scenario: ScenarioFile = None,
     speed: Annotated[
         float, typer.Option(metavar="K", min=1, help="Simulated seconds per wall second")
     ] = 20.0,

@@ -11,6 +11,7 @@ from typing import Annotated
 import typer
 
 from app.cli.errors import fail as _fail
+from app.cli.options import DataDir, DbUrl
 
 
 def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
@@ -65,10 +66,7 @@ def serve(
         str, typer.Option("--host", metavar="ADDRESS", help="Interface to listen on.")
     ] = "127.0.0.1",
     port: Annotated[int, typer.Option("--port", metavar="PORT", help="TCP port.")] = 8000,
-    db: Annotated[
-        str | None,
-        typer.Option("--db", metavar="URL", help="SQLAlchemy URL (default: SQLite in --data-dir)."),
-    ] = None,
+    db: DbUrl = None,
     data_dir: Annotated[
         Path | None,
         typer.Option(
@@ -149,13 +147,8 @@ def serve(
 
 
 def upgrade(
-    db: Annotated[
-        str | None,
-        typer.Option("--db", metavar="URL", help="SQLAlchemy URL (default: SQLite in --data-dir)."),
-    ] = None,
-    data_dir: Annotated[
-        Path | None, typer.Option("--data-dir", metavar="DIR", help="Data folder (default ./data).")
-    ] = None,
+    db: DbUrl = None,
+    data_dir: DataDir = None,
 ) -> None:
     """Apply the Alembic migrations up to the newest (safe to repeat)."""
     from sqlalchemy.exc import SQLAlchemyError
