@@ -5,9 +5,8 @@ the difference is significant by the design's test — the paired t-test on per-
 differences when the policies ran the same seeds (a sweep's design), else Welch — with its
 p-value Holm-adjusted over the verdict family (summary.json `correction`). It says "no
 significant difference" whenever that is the honest reading, flags when the rank test
-(Wilcoxon, or Mann–Whitney) disagrees, and gives the unpaired Welch result as secondary.
-Every p-value printed is labelled raw or adjusted.
-"""
+(Wilcoxon, or Mann–Whitney) disagrees, and gives the unpaired Welch result as secondary;
+every p-value printed is labelled raw or adjusted."""
 
 from __future__ import annotations
 
