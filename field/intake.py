@@ -43,7 +43,7 @@ class ReportedBid(_Strict):
 class ReportedAward(_Strict):
     t: Time
     winner: Name
-    outcome: Literal["pending", "accepted", "declined", "timeout"]
+    outcome: Literal["pending", "accepted", "declined", "timeout", "withdrawn"]
 
 
 class ReportedAuction(_Strict):

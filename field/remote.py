@@ -60,9 +60,11 @@ class RemoteSite:
         return None if self._seen is None else self._seen[key]
 
     def _set(self, key: str, value: Any) -> None:
-        # `by`: a pile that shrinks went into the setter's bucket (the world's record of loads)
+        # `by`: a pile that shrinks went into the setter's bucket (the world's record of loads);
+        # a dig carries a `once` id: asked again after a late reply, it is not a second dig
+        once = {"once": self._asker.new_id("dig")} if key == "remaining" else {}
         self._seen = self._asker.ask_world(
-            "site_set", id=self.id, by=self._asker.name, **{key: value}
+            "site_set", id=self.id, by=self._asker.name, **{key: value}, **once
         )
         self._seen_step = self._asker.step
 
@@ -121,7 +123,7 @@ class RemoteField:
         self._asker.ask_world("drop", x=p[0], y=p[1], by=by, once=self._asker.new_id("drop"))
 
     def pick_ground(self, g: GroundMineral, by: str) -> None:
-        self._asker.ask_world("pick", id=g.id, by=by)
+        self._asker.ask_world("pick", id=g.id, by=by, once=self._asker.new_id("pick"))
 
     def note_delivery(self, by: str) -> None:
         self._asker.ask_world("deliver", by=by, once=self._asker.new_id("deliver"))

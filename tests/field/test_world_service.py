@@ -194,3 +194,22 @@ def test_robots_may_ask_only_what_concerns_them(session: object) -> None:
             )
     finally:
         w.close()
+
+
+def test_a_dig_asked_again_after_a_late_reply_is_not_a_second_dig(session: object) -> None:
+    """An agent asks again when a reply is late; the first ask may have been carried out.
+    Under its `once` id the repeat is answered as the first, not refused as a dig of two
+    (that left an excavator believing it held a mineral the world did not: a stalled run)."""
+    team = Team(session)
+    w = team.w
+    site = w.field.sites[0]
+    try:
+        team.ask("excavator-1", "site_set", id=site.id, worker="excavator-1", by="excavator-1")
+        before = site.remaining
+        args = {"id": site.id, "remaining": before - 1, "by": "excavator-1"}
+        first = team.ask("excavator-1", "site_set", **args, once="excavator-1@z/dig-1")
+        again = team.ask("excavator-1", "site_set", **args, once="excavator-1@z/dig-1")
+        assert first == again and site.remaining == before - 1
+        assert w.loads["excavator-1"] == 1
+    finally:
+        w.close()
