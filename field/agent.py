@@ -55,8 +55,13 @@ Without it, a robot starved for 0.3 s at K = 100 (its failure timeout, 30 s) dec
 peer failed at once and auctioned their tasks again, over and over on a loaded machine."""
 BUSY_RETRIES = 4
 DELIVER_PER_TURN = 100
-PRESENCE_GRACE_S = 3.0
-"""How long mission control's liveliness token may be gone before its agents leave."""
+ABSENCE_S = 30.0
+"""How long (wall) mission control's liveliness token must stay gone before its agents leave
+(a mission control that ends says `stop`; this is for one that died). Short absences are not
+deaths: a mission control starved of CPU on a busy machine can miss its Zenoh lease, and its
+token comes back a moment later. Agents that left at the first 3 s absence left chaos runs
+with no scout or excavator alive, stuck for good."""
+PRESENCE_POLL_S = 2.0
 REPORT_REJECTIONS_S = 1.0
 """How often (wall) an agent tells mission control what it dropped, when that changed."""
 
@@ -92,6 +97,8 @@ class Agent:
         self._loop_thread: int | None = None
         self._ids = itertools.count(1)
         self.stopped = threading.Event()
+        self._absent_since: float | None = None  # monotonic; None while mission control is here
+        self._absence_lock = threading.Lock()
         self.stalls = stalls
         self.session = open_session(listen=listen, connect=connect)
         self.link = Link(self.session, credential, f"agent {name}")
@@ -320,31 +327,48 @@ class Agent:
 
     # --- the clock loop ---------------------------------------------------------------------
     def _on_presence(self, sample: Any) -> None:
-        """Mission control's token went away: it ended or died (a SIGKILLed process's token
-        goes when its connection drops), unless it is back a moment later (a connection
-        that dropped and came back). Slowness is not absence: a starved mission control
-        keeps its agents (a status poll that gave up after 10 s without an answer made
-        agents leave missions that were only slow)."""
+        """Mission control's token went away (it ended, died, or missed its lease while
+        starved) or came back. Slowness is not absence: a starved mission control keeps its
+        agents; only an absence of `ABSENCE_S` without a break makes them leave."""
         if sample.kind == zenoh.SampleKind.DELETE:
-            threading.Timer(PRESENCE_GRACE_S, self._leave_unless_present).start()
+            self._watch_absence()
+        else:
+            self._absent_since = None
 
-    def _leave_unless_present(self) -> None:
+    def _watch_absence(self) -> None:
+        with self._absence_lock:
+            if self._absent_since is not None:
+                return  # a watcher runs already
+            since = self._absent_since = time.monotonic()
+        threading.Thread(target=self._leave_unless_back, args=(since,), daemon=True).start()
+
+    def _leave_unless_back(self, since: float) -> None:
+        while not self.stopped.wait(PRESENCE_POLL_S):
+            if self._absent_since != since:
+                return  # back (its token came again), or another absence since
+            if self._present():
+                with self._absence_lock:
+                    if self._absent_since == since:
+                        self._absent_since = None
+                return
+            if time.monotonic() - since >= ABSENCE_S:
+                log.warning("mission control is gone: leaving")
+                self.stopped.set()
+                return
+
+    def _present(self) -> bool:
         try:
             replies = self.session.liveliness().get(presence_key(self.mission), timeout=2.0)
-            present = any(r.ok is not None for r in replies)
+            return any(r.ok is not None for r in replies)
         except Exception:  # the session is closed: we are leaving anyway
-            present = False
-        if not present:
-            log.warning("mission control is gone: leaving")
-            self.stopped.set()
+            return False
 
     def run(self) -> None:
         self._loop_thread = threading.get_ident()
         self._presence = self.session.liveliness().declare_subscriber(
             presence_key(self.mission), self._on_presence, history=True
         )
-        # (gone already before this subscription: no DELETE will come)
-        threading.Timer(PRESENCE_GRACE_S, self._leave_unless_present).start()
+        self._watch_absence()  # until its token is heard: gone already, no DELETE would come
         env, clock, bus = self.env, self.clock, self.bus
         while not self.stopped.is_set():
             with self.lock:

@@ -210,8 +210,12 @@ def _stuck(m: FieldMission, seed: int) -> str:
             and any(n == e.get("by") or n in str(e["data"]) for n in loads)
         ][-40:]
     trail_txt = "\n".join(map(str, trail))
+    exits = {p.name: p.popen.poll() for p in m.fleet.procs.values() if p.popen.poll() is not None}
     return (
         f"seed {seed}: not finished: {m.fleet.world.status()}\n"
+        f"agent processes that exited (name: code): {exits}\n"
+        f"dropped and refused: {m.rejections()}\n"
+        f"the world's refusals: {m.fleet.world.refusals.snapshot()}\n"
         f"on board by the world's record: {loads}, their last pick-ups: {last}\n"
         f"last heartbeats: {beats}\n"
         f"their last events (t, by, event, data):\n{trail_txt}"
@@ -249,8 +253,12 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
             watch = Progress(f"seed {seed}: the field mission to finish")
             next_at = rng.uniform(100, 300)
             settled = False
+            shown = time.monotonic()
             while not m.done:
                 status = m.fleet.world.status()
+                if time.monotonic() - shown > 15.0:  # how it goes, shown with a failure
+                    shown = time.monotonic()
+                    chaos.note(f"status { {k: status[k] for k in WORK} }")
                 watch.check([status[k] for k in WORK], lambda: _stuck(m, seed))
                 m.advance(m.now)
                 _conserved(m, seed)

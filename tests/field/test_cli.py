@@ -129,6 +129,7 @@ def test_an_agent_leaves_when_mission_control_dies_not_while_it_is_slow() -> Non
     import time
 
     from engine.scenario import reference_scenario
+    from field.agent import ABSENCE_S
     from field.fleet import Fleet
 
     fleet = Fleet(reference_scenario(), 0, "nearest", 20.0)
@@ -144,7 +145,7 @@ def test_an_agent_leaves_when_mission_control_dies_not_while_it_is_slow() -> Non
                 proc.wait(timeout=12.0)
         finally:
             fleet.world._lock.release()
-        fleet.session.close()  # mission control's session ends: gone
-        assert proc.wait(timeout=20.0) is not None
+        fleet.session.close()  # mission control's session ends: gone (for ABSENCE_S and more)
+        assert proc.wait(timeout=ABSENCE_S + 60.0) is not None
     finally:
         fleet.close()
