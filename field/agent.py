@@ -232,7 +232,7 @@ class Agent:
     def _on_body(self, query: Any) -> None:
         """Another robot looks at this one, or acts on it (Zenoh's thread). Only a member
         of the mission is answered, and a call only from the robot it names as the caller."""
-        got = self.link.take_query(query)
+        got = self.link.take_query(query, body_key(self.mission, self.name))
         if got is None:
             return
         opened, req = got
@@ -240,7 +240,8 @@ class Agent:
         if req.get("op") != "look" and (
             not isinstance(caller, dict) or caller.get("name") != opened.sender
         ):
-            self.link.reply(query, req, {"ok": False, "error": "caller: not the signer"})
+            refused = {"ok": False, "error": "caller: not the signer"}
+            self.link.reply(query, body_key(self.mission, self.name), req, refused)
             return
         if isinstance(caller, dict):
             caller["rtype"] = opened.cert.role  # what it is, not what it says it is
@@ -253,7 +254,7 @@ class Agent:
             finally:
                 self.lock.release()
             self.bus.inbox.ready.set()  # the clock loop: what the call triggered is due now
-        self.link.reply(query, req, reply)
+        self.link.reply(query, body_key(self.mission, self.name), req, reply)
 
     def _serve_body(self, req: dict[str, Any], frame: bytes) -> dict[str, Any]:
         reply = serve_body(self, self.robot, self.ctx.robots, req, frame)
@@ -269,7 +270,7 @@ class Agent:
 
     def _on_command(self, sample: Any) -> None:
         """Commands are mission control's alone (signed with its credential)."""
-        got = self.link.open_json(str(sample.key_expr), sample.payload.to_bytes())
+        got = self.link.open_json(command_key(self.mission), sample.payload.to_bytes())
         cmd = self._from_control(got, "a command")
         if cmd is None:
             return
@@ -290,7 +291,8 @@ class Agent:
     def _on_task(self, query: Any) -> None:
         """The operator's console: mission control asks it to auction an operator task (the
         operator's authority is mission control's: it checked the operator's token)."""
-        req = self._from_control(self.link.take_query(query), "an operator task")
+        key = operator_key(self.mission)
+        req = self._from_control(self.link.take_query(query, key), "an operator task")
         if req is None:
             return  # (not answered: the asker is no one to answer)
         task = decode_inject({k: v for k, v in req.items() if k not in ("rid", "until")})
@@ -306,7 +308,7 @@ class Agent:
                 self.bus.inbox.ready.set()  # the clock loop: its announcement is due now
             finally:
                 self.lock.release()
-        self.link.reply(query, req, reply)
+        self.link.reply(query, key, req, reply)
 
     def _from_control(self, got: tuple[Opened, dict[str, Any]] | None, what: str) -> Any:
         """The body of a checked frame if mission control signed it; None (counted) else."""

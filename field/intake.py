@@ -22,6 +22,7 @@ from engine.messages import Heartbeat
 from field.link import Link
 from field.transport import open_message
 from field.trust import CONTROL, MAX_REPORT, Rejected
+from field.wire import event_key
 
 Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.\-]{1,64}$")]
 Time = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -122,8 +123,13 @@ class Recorder:
         if self.on_heard is not None:
             self.on_heard(msg.sender, (msg.x, msg.y) if isinstance(msg, Heartbeat) else None)
 
+    def _report_channel(self, signer: str) -> str:
+        """A report is signed for its signer's own event key (the world service's, by
+        mission control, for `event/world`), whatever key Zenoh hands it over with."""
+        return event_key(self.link.mission, "world" if signer == CONTROL else signer)
+
     def on_report(self, sample: Any) -> None:
-        got = self.link.open_json(str(sample.key_expr), sample.payload.to_bytes(), MAX_REPORT)
+        got = self.link.open_json(self._report_channel, sample.payload.to_bytes(), MAX_REPORT)
         if got is None:
             return
         opened, data = got

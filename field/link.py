@@ -17,7 +17,7 @@ from typing import Any
 
 import zenoh
 
-from field.trust import MAX_FRAME, Credential, Opened, Opener, Rejected, Sealer
+from field.trust import MAX_FRAME, Channel, Credential, Opened, Opener, Rejected, Sealer
 from field.wire import decode_json, encode_json
 
 log = logging.getLogger("regolith.field.link")
@@ -86,7 +86,7 @@ class Link:
 
     # --- receiving -------------------------------------------------------------------------
     def open_json(
-        self, channel: str, payload: bytes, limit: int = MAX_FRAME
+        self, channel: Channel, payload: bytes, limit: int = MAX_FRAME
     ) -> tuple[Opened, dict[str, Any]] | None:
         """A checked frame whose body is a versioned JSON object, or None (counted)."""
         opened = self.opener.admit(channel, payload, limit)
@@ -98,12 +98,19 @@ class Link:
             return None
         return opened, data
 
-    def take_query(self, query: Any) -> tuple[Opened, dict[str, Any]] | None:
-        """An incoming query's checked request; None (counted, not answered) otherwise, and
-        None for one its asker no longer waits for (`late`: under a backlog, answering
-        queries already given up on, each asked again, kept an answerer behind for good)."""
+    def take_query(self, query: Any, key: str) -> tuple[Opened, dict[str, Any]] | None:
+        """An incoming query to this process's queryable on `key`: its checked request;
+        None (counted, not answered) otherwise, and None for one its asker no longer waits
+        for (`late`: under a backlog, answering queries already given up on, each asked
+        again, kept an answerer behind for good).
+
+        The signature is checked against `key`, the queryable's own, not the key the query
+        arrived with: under load Zenoh now and then hands a sample over under another
+        declaration's prefix (a world event put on `regolith/<m>/event/world` reached a robot
+        as `regolith/<m>/msg/world`), and such a request, honest and meant for this
+        queryable, was dropped as forged."""
         payload = query.payload.to_bytes() if query.payload is not None else b""
-        got = self.open_json(str(query.key_expr), payload)
+        got = self.open_json(key, payload)
         if got is not None:
             until = got[1].get("until")
             if isinstance(until, int | float) and time.time() > until:
@@ -111,7 +118,7 @@ class Link:
                 return None
         return got
 
-    def reply(self, query: Any, req: dict[str, Any], data: dict[str, Any]) -> None:
-        key = str(query.key_expr)
+    def reply(self, query: Any, key: str, req: dict[str, Any], data: dict[str, Any]) -> None:
+        """Answer a query taken with `take_query(query, key)`, signed for `key`."""
         body = encode_json({**data, "re": req.get("rid")})
         query.reply(query.key_expr, self.sealer.seal(reply_channel(key), body))

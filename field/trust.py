@@ -22,6 +22,7 @@ import struct
 import threading
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,6 +51,9 @@ MAX_REPORT = 1024 * 1024
 MAX_DEPTH = 16
 """JSON nesting a body may have; the deepest legitimate one (an auction record) has 4."""
 REPLAY_WINDOW = 8192
+Channel = str | Callable[[str], str]
+"""What a frame must have been signed for: a key, or the key given the signer's name (a
+robot's events are signed for `regolith/<m>/event/<its name>`)."""
 LOG_EVERY_S = 10.0
 
 
@@ -283,14 +287,14 @@ class Opener:
         self._lock = threading.Lock()
         self.rejections = Rejections(where)
 
-    def admit(self, channel: str, payload: bytes, limit: int = MAX_FRAME) -> Opened | None:
+    def admit(self, channel: Channel, payload: bytes, limit: int = MAX_FRAME) -> Opened | None:
         try:
             return self.open(channel, payload, limit)
         except Rejected as exc:
             self.rejections.count(exc)
             return None
 
-    def open(self, channel: str, payload: bytes, limit: int = MAX_FRAME) -> Opened:
+    def open(self, channel: Channel, payload: bytes, limit: int = MAX_FRAME) -> Opened:
         if len(payload) > limit:
             raise Rejected("oversized", detail=f"{len(payload)} bytes > {limit}")
         if len(payload) < _HEAD.size + _SIG:
@@ -309,6 +313,8 @@ class Opener:
             newest = self._newest.get(who, 0)
         if cert.gen < newest:
             raise Rejected("stale", who, f"generation {cert.gen} < {newest}")
+        if not isinstance(channel, str):
+            channel = channel(who)
         try:
             key.verify(sig, _signed_text(channel, seq, raw_cert, body))
         except InvalidSignature:

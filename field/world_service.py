@@ -156,7 +156,7 @@ class WorldService:
     def _on_query(self, query: Any) -> None:
         """A signed request from a member of the mission (anything else is dropped and
         counted, unanswered), checked against what its asker may do (`world_rules`)."""
-        got = self.link.take_query(query)
+        got = self.link.take_query(query, world_key(self.mission))
         if got is None:
             return
         opened, req = got
@@ -172,7 +172,7 @@ class WorldService:
             why = "refused" if isinstance(exc, Refused) else "bad request"
             self.refusals.count(Rejected(why, opened.sender, str(exc)[:200]))
             reply = {"ok": False, "error": str(exc)[:200]}
-        self.link.reply(query, req, reply)
+        self.link.reply(query, world_key(self.mission), req, reply)
         self._flush()
 
     # --- the operations -------------------------------------------------------------------

@@ -146,6 +146,48 @@ def test_a_query_its_asker_gave_up_on_is_not_answered() -> None:
 
     import time
 
-    assert link.take_query(query(time.time() + 2.0)) is not None
-    assert link.take_query(query(time.time() - 0.1)) is None
+    assert link.take_query(query(time.time() + 2.0), key) is not None
+    assert link.take_query(query(time.time() - 0.1), key) is None
     assert link.late == 1 and link.opener.rejections.total == 0
+
+
+def test_a_frame_counts_for_the_key_its_receiver_expects_not_the_key_it_came_under() -> None:
+    """Zenoh now and then hands a sample over under another declaration's prefix (a world
+    event put on `regolith/<m>/event/world` reached a robot as `regolith/<m>/msg/world`):
+    a queryable checks a request against its own key, so an honest one is still answered,
+    and a frame signed for another key is still refused."""
+    from types import SimpleNamespace
+
+    from field.link import Link
+    from field.wire import encode_json
+
+    authority = Authority("m1")
+    link = Link(None, authority.control, "test")  # type: ignore[arg-type]
+    asker = Sealer(authority.issue("hauler-1", "hauler"))
+    world, body = "regolith/m1/world", "regolith/m1/body/hauler-2"
+
+    def query(signed_for: str) -> SimpleNamespace:
+        data = encode_json({"op": "status", "rid": "r", "until": 4e9})
+        payload = SimpleNamespace(to_bytes=lambda: asker.seal(signed_for, data))
+        return SimpleNamespace(payload=payload, key_expr="regolith/m1/msg/world")  # mangled
+
+    assert link.take_query(query(world), world) is not None
+    assert link.take_query(query(body), world) is None  # meant for another queryable
+    assert link.opener.rejections.by_reason == {"forged": 1}
+
+
+def test_a_report_is_signed_for_its_signers_own_event_key() -> None:
+    from field.intake import Recorder
+    from field.link import Link
+    from field.wire import event_key
+
+    authority = Authority("m1")
+    recorder = Recorder(Link(None, authority.control, "test"))  # type: ignore[arg-type]
+    hauler = Sealer(authority.issue("hauler-1", "hauler"))
+    world = Sealer(authority.control)
+    opener = recorder.link.opener
+    assert opener.admit(recorder._report_channel, hauler.seal(event_key("m1", "hauler-1"), b"{}"))
+    assert opener.admit(recorder._report_channel, world.seal(event_key("m1", "world"), b"{}"))
+    # in another robot's name: refused, whatever key it is put on
+    assert not opener.admit(recorder._report_channel, hauler.seal(event_key("m1", "h-2"), b"{}"))
+    assert opener.rejections.by_reason == {"forged": 1}
