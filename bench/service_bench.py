@@ -71,8 +71,8 @@ def start_server(
     cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
     cmd += ["--port", str(port), "--data-dir", str(data_dir), "--log-level", "warning"]
     proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
+    deadline = time.monotonic() + 300  # a loaded machine takes a minute and more to import
+    while time.monotonic() < deadline and proc.poll() is None:
         try:
             if httpx.get(f"http://127.0.0.1:{port}/api/health").status_code == 200:
                 return proc
