@@ -56,7 +56,8 @@ def _pymalloc() -> list[str]:
         chunks.append(chunk)
     os.close(r)
     keep = ("arenas allocated current", "bytes in allocated blocks", "bytes in available")
-    return [line for line in b"".join(chunks).decode().splitlines() if line.startswith(keep)]
+    lines = b"".join(chunks).decode().splitlines()
+    return [" ".join(line.lstrip("# ").split()) for line in lines if any(k in line for k in keep)]
 
 
 def dump(label: str) -> None:
