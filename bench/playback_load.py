@@ -1,6 +1,6 @@
 """Playback under load: the server's memory and the checkpoint builders with many scrubs.
 
-    .venv/bin/python bench/playback_load.py [--missions 6] [--scrubs 500] [--scale 1]
+    .venv/bin/python bench/playback_load.py [--missions 6] [--scrubs 500] [--scale 1] [--diag]
 
 Starts `regolith serve` in a subprocess on a free port with a fresh data folder, runs
 `--missions` missions to their end at "max", then starts one long live mission at 20x (it
@@ -13,7 +13,10 @@ stays live throughout: the heap is frozen, `app/live/gc_pause.py`) and measures
    the server's resident memory (RSS) sampled every 0.1 s: at start, peak, and 10 s after the
    last answer; the engines open (`regolith_playback_engines`) and full collections run.
 
-Prints one line per figure.
+Prints one line per figure. With `--diag` the server runs under bench/memdiag_serve.py and
+the memory's make-up (glibc heap, CPython's allocator arenas and blocks, objects by type) is
+printed before playback, before the load and 10 s after it, then once more after closing the
+pool's engines with a full collection and `malloc_trim` (what stays without them).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import random
+import signal
 import subprocess
 import tempfile
 import threading
@@ -113,12 +117,24 @@ def main() -> None:
     ap.add_argument("--missions", type=int, default=6)
     ap.add_argument("--scrubs", type=int, default=500)
     ap.add_argument("--scale", type=int, default=1)
+    ap.add_argument("--diag", action="store_true", help="memory make-up (memdiag_serve.py)")
     args = ap.parse_args()
     port = free_port()
     base = f"http://127.0.0.1:{port}"
     with tempfile.TemporaryDirectory() as tmp:
-        proc = start_server(Path(tmp), port)
+        out = Path(tmp) / "memdiag.txt"
+        launcher = [str(Path(__file__).with_name("memdiag_serve.py"))] if args.diag else None
+        proc = start_server(Path(tmp), port, {"MEMDIAG_OUT": str(out)}, launcher)
         server = psutil.Process(proc.pid)
+
+        def diag(sig: signal.Signals = signal.SIGUSR1) -> None:
+            """Ask the server for its memory's make-up; wait until it is written."""
+            if args.diag:
+                size = out.stat().st_size if out.exists() else 0
+                proc.send_signal(sig)
+                while not out.exists() or out.stat().st_size == size:
+                    time.sleep(0.2)
+
         try:
             with httpx.Client(base_url=base, headers=AUTH, timeout=900) as api:
                 ids = finished(api, args.missions, args.scale)
@@ -128,6 +144,7 @@ def main() -> None:
                 ).json()
                 print(f"{len(ids)} finished missions (scale {args.scale}), one live at 20x")
                 time.sleep(2.0)
+                diag()
                 rss0 = server.memory_info().rss
                 cpu0, t0 = sum(server.cpu_times()[:2]), time.perf_counter()
                 first = asyncio.run(_firsts(base, ids))
@@ -138,6 +155,7 @@ def main() -> None:
                     f"checkpoints finished {took:.1f} s later; server CPU {cpu:.0%} of a core; "
                     f"engines open {gauge(api, 'regolith_playback_engines')}"
                 )
+                diag()
                 sampler = Sampler(server)
                 sampler.start()
                 start = server.memory_info().rss
@@ -160,6 +178,10 @@ def main() -> None:
                     f"{gauge(api, 'regolith_gc_full_collection_seconds_total')} s; "
                     f"live mission {state}"
                 )
+                diag()
+                diag(signal.SIGHUP)
+                if args.diag:
+                    print(out.read_text(), end="")
         finally:
             proc.terminate()
             try:

@@ -62,17 +62,21 @@ def free_port() -> int:
 
 
 def start_server(
-    data_dir: Path, port: int, extra_env: dict[str, str] | None = None
+    data_dir: Path,
+    port: int,
+    extra_env: dict[str, str] | None = None,
+    launcher: list[str] | None = None,
 ) -> subprocess.Popen[bytes]:
     """`regolith serve` with the bench token and no rate limit (each bench's phases are
-    deliberate bursts), plus `extra_env`; returns once it answers."""
+    deliberate bursts), plus `extra_env`; returns once it answers. `launcher`: a script
+    that runs the CLI instead (bench/memdiag_serve.py)."""
     env = {**os.environ, "REGOLITH_TOKEN": TOKEN, "REGOLITH_RATE_LIMIT_PER_S": "0"}
     env.update(extra_env or {})
-    cmd = [sys.executable, "-c", "from app.cli import main; main()", "serve"]
+    cmd = [sys.executable, *(launcher or ["-c", "from app.cli import main; main()"]), "serve"]
     cmd += ["--port", str(port), "--data-dir", str(data_dir), "--log-level", "warning"]
     proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.DEVNULL)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
+    deadline = time.monotonic() + 300  # a loaded machine takes a minute and more to import
+    while time.monotonic() < deadline and proc.poll() is None:
         try:
             if httpx.get(f"http://127.0.0.1:{port}/api/health").status_code == 200:
                 return proc

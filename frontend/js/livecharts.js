@@ -74,12 +74,17 @@ export class LiveCharts {
     this._soon();
   }
 
-  /** Backfill from stored `delivered` events when joining a running mission. */
+  /** Backfill from stored `delivered` events when joining a running mission. The answer may
+   * come after frames moved the curve on (the stored events lag the stream): they are merged
+   * by count, never replacing what frames already showed, so the curve never falls behind
+   * the counters (a pause right after would have left it there). */
   loadDeliveries(events) {
     if (!events.length || this.final) return;
-    const sorted = [...events].sort((a, b) => a.t - b.t || a.seq - b.seq);
-    this.delivered = sorted.map((e) => [e.t, e.data.delivered]);
-    this.last = this.delivered[this.delivered.length - 1][1];
+    const byCount = new Map(this.delivered.map(([t, n]) => [n, t]));
+    for (const e of events) byCount.set(e.data.delivered, e.t); // the event's own time is exact
+    this.delivered = [...byCount].map(([n, t]) => [t, n]).sort((a, b) => a[1] - b[1]);
+    const stored = this.delivered[this.delivered.length - 1][1];
+    this.last = this.last === null ? stored : Math.max(this.last, stored);
     this.draw();
   }
 

@@ -18,6 +18,7 @@ from engine import load_scenario
 from tests.e2e.conftest import ConsoleLog
 from tests.e2e.test_compare_groups import FOUR, finish
 from tests.e2e.test_dashboard import Start, next_robot_poll, wait_for
+from tests.progress import STALL_S, START_S, Progress
 
 WIDE = {"width": 1440, "height": 900}
 LONG = {**FOUR, "name": "south-pole-survey-x10"}  # a long scenario name, as scaled ones have
@@ -189,54 +190,63 @@ def test_the_sweep_panel_holds_its_form_and_says_when_it_builds_figures(
     assert console.errors == []
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason="known defect, open: after a pause at Max the distance chart sometimes never "
-    "settles on the robot table's sums (about 1 run in 3 here)",
-)
+#: minerals enough that the mission cannot end at Max before the test pauses it, however
+#: slowly a loaded machine lets the test sample (the reference scenario's 64 could)
+MANY = {"name": "many-minerals", "minerals": 1500, "max_time_s": 10_000_000}
+#: the chart's figures as last drawn against the table's sums and the counters, read at one
+#: moment in the page (a robot poll may land between two separate reads)
+AGREE = """(() => { const c = window.__regolith.charts; const s = c.shown; const want = {};
+    for (const tr of document.querySelectorAll('#robot-table tr[data-robot]'))
+      want[tr.dataset.type] = (want[tr.dataset.type] || 0) + Number(tr.dataset.distance);
+    const delivered = window.__regolith.lastCounters.minerals_delivered;
+    const ok = s && Object.keys(want).length
+      && Object.keys(want).every(k => Math.abs((s.distance[k] || 0) - want[k]) < 0.5)
+      && s.delivered === delivered;
+    return {ok, shown: s, table: want, delivered, curve: c.delivered.slice(-3)}; })()"""
+
+
 def test_at_max_the_charts_and_counters_agree_with_the_table_and_feed(
     operator: Page, start_mission: Start, api: httpx.Client
 ) -> None:
     page = operator
     page.set_viewport_size(WIDE)
-    mission = start_mission(seed=9, speed="max", planner="straight", paused=True)
+    mission = start_mission(seed=9, speed="max", planner="straight", paused=True, scenario=MANY)
     mid = mission["id"]
     page.goto(f"/#/live/{mid}")
-    expect(page.locator("#live-status")).to_have_text("paused")
+    # the page's first load: no progress to watch, so the generous start limit (progress.py)
+    expect(page.locator("#live-status")).to_have_text("paused", timeout=START_S * 1000)
     count = page.locator("#feed-count")
     assert api.put(f"/missions/{mid}/speed", json={"speed": "max"}).status_code == 200
     assert api.post(f"/missions/{mid}/resume").status_code == 200
     samples = 0
+    watch = Progress("five deliveries and three counter samples at Max")
     while True:  # while it runs at Max: the box counts auctions as the feed does
-        box, feed, delivered = page.evaluate(
+        box, feed, delivered, t = page.evaluate(
             """[document.querySelector('[data-counter=auctions]')?.textContent + ' · '
                 + document.querySelector('[data-counter=open]')?.textContent + ' open',
                document.querySelector('#feed-count').textContent,
-               window.__regolith.lastCounters.minerals_delivered]"""
+               window.__regolith.lastCounters.minerals_delivered, window.__regolith.t]"""
         )
         if "undefined" not in box and feed:
             assert box == feed
             samples += 1
-        if delivered is not None and delivered >= 3 and samples >= 3:
+        if delivered is not None and delivered >= 5 and samples >= 3:
             break
+        watch.check((t, samples))
         page.wait_for_timeout(50)
-    assert samples >= 3
     assert api.post(f"/missions/{mid}/pause").status_code == 200
-    expect(page.locator("#live-status")).to_have_text("paused")
+    expect(page.locator("#live-status")).to_have_text("paused", timeout=STALL_S * 1000)
     next_robot_poll(page, mid)
     next_robot_poll(page, mid)
-    # the chart, drawn after the last change, shows the table's sums (both read at one moment
-    # in the page: a robot poll may still land between two separate reads)
-    shown = wait_for(
-        page,
-        """(() => { const s = window.__regolith.charts.shown; const want = {};
-            for (const tr of document.querySelectorAll('#robot-table tr[data-robot]'))
-              want[tr.dataset.type] = (want[tr.dataset.type] || 0) + Number(tr.dataset.distance);
-            return s && Object.keys(want).length
-              && Object.keys(want).every(k => Math.abs((s.distance[k] || 0) - want[k]) < 0.5)
-              && s.delivered === window.__regolith.lastCounters.minerals_delivered && s; })()""",
-        timeout=30,
-    )
+    # paused, nothing moves: within the chart's redraw second after the last robot poll the
+    # chart shows the table's sums and the counters' deliveries, and stays so; polls go on
+    # once a second, so a chart that never settles fails after a few of them
+    polls = 0
+    while not (seen := page.evaluate(AGREE))["ok"]:
+        assert polls < 10, f"the charts never settled on the table and counters: {seen}"
+        next_robot_poll(page, mid)
+        polls += 1
+    shown = seen["shown"]
     assert shown["delivered"] >= 5
     expect(count).to_have_text(re.compile(r"^\d+ · \d+ open$"))
     # no energy and no Policy 2 pair in this mission: the legend does not show them
