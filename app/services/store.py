@@ -144,9 +144,6 @@ class Store:
         for part in parts:
             await part
 
-    async def update_mission(self, mission_id: int, changes: dict[str, Any]) -> None:
-        await self._write(_update_mission, mission_id, changes)
-
     async def interrupt_stale(self) -> int:
         """Missions left running by a crash cannot be live now: mark them interrupted."""
         return await self._write(_interrupt_stale)

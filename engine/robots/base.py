@@ -7,7 +7,7 @@ behaviour (scan, dig, haul) lives in a subclass as a simpy process; the protocol
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 import simpy
 
@@ -36,9 +36,6 @@ from engine.policies import OpenAuction
 from engine.robots.charging import Charging
 from engine.robots.core import Assignment
 from engine.robots.recovery import Recovery
-
-if TYPE_CHECKING:
-    pass
 
 
 class Robot(Charging, Recovery):
