@@ -94,7 +94,7 @@ class Robot(Charging, Recovery):
         if radio is not None and not radio.in_contact(self.name):
             yield from self.regain_contact()
             return
-        spot = self.ctx.policy.standby(self.ctx, self.name)
+        spot = self.ctx.policy.standby(self.name)
         if spot is None:
             self.state = "idle"
             yield self.wait_for_wake()
