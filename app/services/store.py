@@ -28,7 +28,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
 from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, Sweep, utcnow
-from app.services.recorder import Batch, Stored
+from app.live.recorder import Batch, Stored
 
 T = TypeVar("T")
 
