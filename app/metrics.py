@@ -16,8 +16,8 @@ from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metri
 from prometheus_client.registry import Collector
 
 from app.live.hub import STATS
+from app.live.modes import dropped_of
 from app.live.runner import MissionRunner
-from app.services.field_rules import dropped_of
 from app.services.playback import Playback
 from app.services.store import Store
 

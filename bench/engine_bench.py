@@ -60,7 +60,7 @@ def _time_solves() -> list[float]:
 
 
 TARGETS = {1: 0.10, 10: 3.0, 100: 120.0}
-"""Issue 14's wall-time targets per scale (seconds, median mission)."""
+"""The scale targets for wall time per scale (seconds, median mission)."""
 SLOPE_TARGET = 1.3
 CHUNK_S = 250.0
 """Simulated seconds advanced between looks at the mission's wall-time budget."""
@@ -263,7 +263,7 @@ def main() -> int:
 
 
 def print_targets(measured: dict[int, dict[str, Any]], slopes: dict[str, float]) -> list[int]:
-    """Issue 14's targets against what was measured; returns the scales that missed theirs."""
+    """The scale targets against what was measured; returns the scales that missed theirs."""
     print("\ntarget                         measured        target    verdict")
     missed = []
     for scale, target in TARGETS.items():

@@ -1,4 +1,4 @@
-"""The live view at scale (issue 14): a real server, a live mission, the dashboard in Debian's
+"""The live view at scale: a real server, a live mission, the dashboard in Debian's
 chromium, and what the browser sees of the stream.
 
     .venv/bin/python bench/live_view_bench.py                 # --scale 10, then --scale 100

@@ -1,5 +1,5 @@
 """Every registered policy on scenarios/lunar-realistic.toml (all four realism options on):
-does every run complete with every mineral delivered? (docs/model.md, issue 15's acceptance.)
+does every run complete with every mineral delivered? (docs/model.md: the options' acceptance.)
 
     nice .venv/bin/python bench/realism_check.py --seeds 0-19 [--workers 2]
 

@@ -18,7 +18,7 @@ Starts `regolith serve` in a subprocess on a free port with a fresh data folder,
    queue); then a control run of the same mission without it, with the same waits. Frame
    delay as in 1; the mission's pace from the frames' (wall, t) stamps.
 
-Targets (issue 4): p99 frame delay < 100 ms; control p99 < 50 ms. Issue 7: the readers'
+Targets (the service's): p99 frame delay < 100 ms; control p99 < 50 ms. A slow client: the readers'
 frame delay with the stalled viewer within 2x of the clean windows, the pace unchanged.
 """
 
@@ -314,11 +314,11 @@ def bench_stalled(base: str, port: int, seconds: float) -> None:
         ),
     }
     for name, (delays, per_reader, rate) in references.items():
-        held = issue7_bound(w, delays, per_reader, rate)
-        print(f"  issue 7 bound against {name}: {'held' if held else 'NOT HELD'}")
+        held = slow_client_bound(w, delays, per_reader, rate)
+        print(f"  slow-client bound against {name}: {'held' if held else 'NOT HELD'}")
 
 
-def issue7_bound(w: Window, delays: list[float], per_reader: float, rate: float) -> bool:
+def slow_client_bound(w: Window, delays: list[float], per_reader: float, rate: float) -> bool:
     """With the stalled viewer attached, the readers' median frame delay within 2x of the
     reference's plus 20 ms (a few ms move by more than 2x from scheduling alone on a loaded
     2-core machine; p99 is printed, never judged), at least half its frames per reader, and

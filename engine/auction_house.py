@@ -11,7 +11,7 @@ it if the winner falls silent. The records it keeps and the decisions it applies
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Set
+from collections.abc import Callable, Mapping, Sequence, Set
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import simpy
@@ -32,8 +32,9 @@ if TYPE_CHECKING:
 
 class AuctionPorts(Protocol):
     """What an auctioneer needs of the mission, and nothing more: the clock, the protocol's
-    timing, the bus, the observer's records and, for the centralized baseline only, an
-    oracle's award order (None: the auctioneer ranks the bids)."""
+    timing, the bus, the observer's records, the policy's choice among bidders tied exactly at
+    the top and, for the centralized baseline only, an oracle's award order (None: the
+    auctioneer ranks the bids)."""
 
     env: simpy.Environment
 
@@ -56,6 +57,7 @@ class AuctionPorts(Protocol):
     def oracle_rank(
         self, rec: AuctionRecord, bids: Mapping[str, float], excluded: Set[str]
     ) -> list[str] | None: ...
+    def break_tie(self, rec: AuctionRecord, tied: Sequence[str]) -> str: ...
 
 
 class _Live:
@@ -192,7 +194,11 @@ class AuctionHouse:
     def _ranked(self, rec: AuctionRecord, live: _Live) -> list[str]:
         """Award order: the bids ranked (docs/spec.md §6.4), or the policy's oracle's choice."""
         chosen = self.ports.oracle_rank(rec, live.live_bids, live.declined)
-        return rank_bids(live.live_bids, live.declined) if chosen is None else chosen
+        if chosen is not None:
+            return chosen
+        return rank_bids(
+            live.live_bids, live.declined, lambda tied: self.ports.break_tie(rec, tied)
+        )
 
     def _close(self, rec: AuctionRecord, winner: str) -> None:
         self._publish_close(rec, winner, "closed")

@@ -1,14 +1,14 @@
 """The auction's pure part (docs/spec.md §6): what an auction records and how it decides.
 
 The records (`AuctionRecord` with its `BidRecord`s and `AwardRecord`s), the decisions
-(`rank_bids`, `select_winner`) and an auctioneer's responsibilities (`Allocation`, `Duties`).
+(`rank_bids`) and an auctioneer's responsibilities (`Allocation`, `Duties`).
 No simpy and no clock here: `engine.auction_house` runs the protocol over time with them.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -86,17 +86,27 @@ class AuctionRecord:
         }
 
 
-def rank_bids(bids: Mapping[str, float], excluded: Iterable[str] = ()) -> list[str]:
-    """Bidders by utility, best first; never a -inf bidder; ties go to the smaller name."""
+def rank_bids(
+    bids: Mapping[str, float],
+    excluded: Iterable[str] = (),
+    break_tie: Callable[[Sequence[str]], str] | None = None,
+) -> list[str]:
+    """Bidders by utility, best first; never a -inf bidder. Ties go to the smaller name, except
+    that `break_tie`, given the bidders tied exactly at the top (sorted by name), picks which
+    of them comes first (the policy's hook at the auctioneer, `Policy.break_tie`)."""
     skip = set(excluded)
     finite = [(u, b) for b, u in bids.items() if math.isfinite(u) and b not in skip]
     finite.sort(key=lambda ub: (-ub[0], ub[1]))
-    return [b for _, b in finite]
-
-
-def select_winner(bids: Mapping[str, float], excluded: Iterable[str] = ()) -> str | None:
-    ranked = rank_bids(bids, excluded)
-    return ranked[0] if ranked else None
+    ranked = [b for _, b in finite]
+    if break_tie is not None and len(finite) > 1 and finite[1][0] == finite[0][0]:
+        top = finite[0][0]
+        tied = [b for u, b in finite if u == top]
+        first = break_tie(tied)
+        if first not in tied:
+            raise ValueError(f"break_tie chose {first!r}, not one of the tied {tied}")
+        ranked.remove(first)
+        ranked.insert(0, first)
+    return ranked
 
 
 @dataclass(slots=True)

@@ -30,7 +30,7 @@ from engine.planning import PlanningError
 
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord
-    from engine.context import MissionContext
+    from engine.global_view import GlobalView
     from engine.robots.base import Robot
 
 FORBIDDEN = 1e12
@@ -42,7 +42,7 @@ class Allocator(Protocol):
 
     def rank(
         self,
-        ctx: MissionContext,
+        ctx: GlobalView,
         rec: AuctionRecord,
         bids: Mapping[str, float],
         excluded: Set[str],
@@ -62,7 +62,7 @@ class OracleAllocator:
 
     def rank(
         self,
-        ctx: MissionContext,
+        ctx: GlobalView,
         rec: AuctionRecord,
         bids: Mapping[str, float],
         excluded: Set[str],
@@ -81,7 +81,7 @@ class OracleAllocator:
 
 
 def assign_greedily(
-    ctx: MissionContext,
+    ctx: GlobalView,
     rec: AuctionRecord,
     tasks: list[AuctionRecord],
     promised: Set[str],
@@ -106,7 +106,7 @@ def assign_greedily(
     return [] if chosen is None else [robots[chosen].name]
 
 
-def travel_s(ctx: MissionContext, robot: Robot, goal: tuple[float, float]) -> float:
+def travel_s(ctx: GlobalView, robot: Robot, goal: tuple[float, float]) -> float:
     """Time to drive from the robot's true position to the goal along the planned path."""
     try:
         length = path_length(ctx.planner.plan(robot.position()[0], goal))

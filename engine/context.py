@@ -9,7 +9,7 @@ auction records, counters) is bookkeeping for the researcher; no robot decision 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Set
+from collections.abc import Mapping, Sequence, Set
 from typing import TYPE_CHECKING, Any
 
 import simpy
@@ -41,13 +41,15 @@ class MissionContext:
         world: World,
         planner: PathPlanner,
         env: simpy.Environment,
-        policy: Policy,
+        policy: Policy | None = None,
     ) -> None:
         self.scenario = scenario
         self.world = world
         self.planner = planner
         self.env = env
-        self.policy = policy
+        self.policy: Policy  # set by its creator (a baseline's global view is this context)
+        if policy is not None:
+            self.policy = policy
         self.observer = Observer(lambda: float(env.now))
         self.bus: EmbeddedBus  # set by the mission once the bus exists
         self.liveness = Liveness()
@@ -100,8 +102,12 @@ class MissionContext:
     def oracle_rank(
         self, rec: AuctionRecord, bids: Mapping[str, float], excluded: Set[str]
     ) -> list[str] | None:
-        oracle = self.policy.allocator()
-        return None if oracle is None else oracle.rank(self, rec, bids, excluded)
+        policy = self.policy
+        oracle = policy.allocator()
+        return None if oracle is None else oracle.rank(policy.global_view, rec, bids, excluded)
+
+    def break_tie(self, rec: AuctionRecord, tied: Sequence[str]) -> str:
+        return self.policy.break_tie(rec, tied)
 
     # --- across the field and the robots ---------------------------------------------------
     def minerals_in(self) -> dict[str, int]:

@@ -15,10 +15,10 @@ from engine.geometry import Point, dist, first_entry
 from engine.planning import Path, PathPlanner, PlanningError
 
 if TYPE_CHECKING:
-    from engine.context import MissionContext
+    from engine.global_view import GlobalView
 
 
-def predict_found(ctx: MissionContext) -> dict[str, float]:
+def predict_found(ctx: GlobalView) -> dict[str, float]:
     """When each site not yet found will be, by driving every working scout's remaining route
     on paper, along the paths the run's planner gives: the fixed spiral of docs/spec.md §7."""
     now, r = float(ctx.env.now), ctx.scenario.scan_radius
@@ -53,7 +53,7 @@ def predict_found(ctx: MissionContext) -> dict[str, float]:
     return out
 
 
-def legs(ctx: MissionContext, a: Point, b: Point) -> list[tuple[Point, Point]]:
+def legs(ctx: GlobalView, a: Point, b: Point) -> list[tuple[Point, Point]]:
     """The segments of the path a scout drives from a to b (the run's own planner: its per-run
     cache then gives the scout this very path when it gets there)."""
     if ctx.world.index.segment_free(a, b):
@@ -81,7 +81,7 @@ class SnappingPlanner:
     segment), and under any other policy every query goes straight to the run's planner.
     """
 
-    def __init__(self, inner: PathPlanner, ctx: MissionContext) -> None:
+    def __init__(self, inner: PathPlanner, ctx: GlobalView) -> None:
         self.inner = inner
         self.stats = inner.stats
         self._ctx = ctx

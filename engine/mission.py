@@ -22,7 +22,7 @@ from engine.events import Event
 from engine.messages import PolicyChange
 from engine.metrics import mission_metrics
 from engine.planning import OmplPlanner, PathPlanner, StraightLinePlanner
-from engine.policies import make_policy, resolve_policy
+from engine.policies import Policy, PolicyContext, make_policy, policy_class, resolve_policy
 from engine.realism_setup import install_realism, make_bus
 from engine.robots import OPERATOR, Excavator, Hauler, Operator, Robot, Scout
 from engine.robots.scout import site_task_id
@@ -52,16 +52,16 @@ class Mission(MissionViews):
         self.scenario = scenario
         self.seed = seed
         self.initial_policy = resolve_policy(policy)
-        # spawn(4)'s first three streams are spawn(3)'s: the reference runs are unchanged
-        world_rng, bus_rng, plan_rng, work_rng = (
-            np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4)
+        # spawn(5)'s first four streams are spawn(4)'s (and its first three spawn(3)'s): a
+        # stream added last changes none before it, so the reference runs are unchanged
+        world_rng, bus_rng, plan_rng, work_rng, self._policy_rng = (
+            np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(5)
         )
         self.world = generate_world(scenario, world_rng)
         chosen = make_planner(planner, self.world, plan_rng)
         self.env = simpy.Environment()
-        self.ctx = ctx = MissionContext(
-            scenario, self.world, chosen, self.env, make_policy(self.initial_policy)
-        )
+        self.ctx = ctx = MissionContext(scenario, self.world, chosen, self.env)
+        ctx.policy = self._make_policy(self.initial_policy)
         install_realism(ctx, work_rng)
         ctx.bus = make_bus(ctx, bus_rng)
         self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
@@ -106,6 +106,12 @@ class Mission(MissionViews):
             y = min(max(py + rad * math.sin(a), 0.0), self.world.height)
             out.append((round(x, 6), round(y, 6)))
         return out
+
+    def _make_policy(self, name: str) -> Policy:
+        """The policy with the run's policy stream; a baseline also gets the global view."""
+        central = not policy_class(name).decentralized
+        context = PolicyContext(self._policy_rng, global_view=self.ctx if central else None)
+        return make_policy(name, context)
 
     def _make_robot(self, rtype: str, pos: tuple[float, float]) -> Robot:
         self._counts[rtype] += 1
@@ -237,7 +243,7 @@ class Mission(MissionViews):
             raise CommandRejected(str(exc)) from None
         self._record("set_policy", policy=name)
         old = self.ctx.policy.name
-        self.ctx.policy = make_policy(name)
+        self.ctx.policy = self._make_policy(name)
         self.ctx.bus.publish(PolicyChange(sender=OPERATOR, policy=name))
         self.ctx.observer.emit("policy_changed", old=old, new=name)
         for r in self._robots():

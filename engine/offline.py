@@ -38,7 +38,7 @@ from engine.schedule import Job, Problem, Schedule, Unit, optimize
 
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord
-    from engine.context import MissionContext
+    from engine.global_view import GlobalView
     from engine.robots.base import Robot
 
 PATIENCE_S = 300.0
@@ -85,7 +85,7 @@ class OfflineAllocator:
     # --- the auctioneer's question ---------------------------------------------------------
     def rank(
         self,
-        ctx: MissionContext,
+        ctx: GlobalView,
         rec: AuctionRecord,
         bids: Mapping[str, float],
         excluded: Set[str],
@@ -101,7 +101,7 @@ class OfflineAllocator:
                 return chosen
         return self._greedy(ctx, rec, excluded)
 
-    def standby(self, ctx: MissionContext, name: str) -> Point | None:
+    def standby(self, ctx: GlobalView, name: str) -> Point | None:
         """Where an idle robot should wait: the site of its next planned task."""
         self._ensure(ctx)
         for e in self.plans.get(name, ()):
@@ -112,7 +112,7 @@ class OfflineAllocator:
         return None if nxt is None else nxt.pos
 
     # --- executing the plan ----------------------------------------------------------------
-    def _next(self, ctx: MissionContext, name: str) -> Entry | None:
+    def _next(self, ctx: GlobalView, name: str) -> Entry | None:
         now = float(ctx.env.now)
         for e in self.plans.get(name, ()):
             if e.state != "pending":
@@ -124,7 +124,7 @@ class OfflineAllocator:
         return None
 
     def _by_plan(
-        self, ctx: MissionContext, rec: AuctionRecord, site: str, excluded: Set[str]
+        self, ctx: GlobalView, rec: AuctionRecord, site: str, excluded: Set[str]
     ) -> list[str] | None:
         """The planned robot ([] while it cannot take it yet); None: the plan has no such task."""
         ready: list[tuple[int, float, str, Entry]] = []
@@ -151,7 +151,7 @@ class OfflineAllocator:
             return [name]
         return [] if self.pending.get((site, rec.task_type), 0) else None
 
-    def _greedy(self, ctx: MissionContext, rec: AuctionRecord, excluded: Set[str]) -> list[str]:
+    def _greedy(self, ctx: GlobalView, rec: AuctionRecord, excluded: Set[str]) -> list[str]:
         """central-greedy's rule over the open tasks the plan does not cover."""
         tasks = [
             a
@@ -163,7 +163,7 @@ class OfflineAllocator:
         promised = _promised(ctx, rec)
         return assign_greedily(ctx, rec, tasks, promised, excluded)
 
-    def _covers(self, ctx: MissionContext, rec: AuctionRecord) -> bool:
+    def _covers(self, ctx: GlobalView, rec: AuctionRecord) -> bool:
         site = self._site(ctx, rec.location)
         return site is not None and self.pending.get((site, rec.task_type), 0) > 0
 
@@ -172,7 +172,7 @@ class OfflineAllocator:
         self.pending[key] = self.pending.get(key, 0) + (state == "pending") - (e.state == "pending")
         e.state = state
 
-    def invites(self, ctx: MissionContext, name: str, site_pos: Point, task_type: str) -> bool:
+    def invites(self, ctx: GlobalView, name: str, site_pos: Point, task_type: str) -> bool:
         """Should this robot bid in an auction for this task? Only the robot whose next planned
         task it is, or everyone when the plan does not cover it (bids decide nothing here;
         they keep the records like the other policies' and wake an auction that waits)."""
@@ -182,7 +182,7 @@ class OfflineAllocator:
         nxt = self._next(ctx, name)
         return nxt is not None and nxt.site == site
 
-    def _site(self, ctx: MissionContext, p: Point) -> str | None:
+    def _site(self, ctx: GlobalView, p: Point) -> str | None:
         """The site at a task's place (auctions name a site by its exact coordinates)."""
         if p not in self._sites:
             site = ctx.field.site_at(p)
@@ -190,7 +190,7 @@ class OfflineAllocator:
         return self._sites[p]
 
     # --- planning --------------------------------------------------------------------------
-    def _ensure(self, ctx: MissionContext) -> None:
+    def _ensure(self, ctx: GlobalView) -> None:
         if not isinstance(ctx.planner, SnappingPlanner):
             ctx.planner = SnappingPlanner(ctx.planner, ctx)
         roster = tuple(
@@ -202,7 +202,7 @@ class OfflineAllocator:
             self.roster = roster
             self._plan(ctx, "start" if self.plans_made == 0 else "team changed")
 
-    def _plan(self, ctx: MissionContext, reason: str) -> None:
+    def _plan(self, ctx: GlobalView, reason: str) -> None:
         problem = build_problem(ctx)
         minerals = sum(j.minerals for j in problem.jobs)
         size = max(1, minerals * len(problem.haulers) * max(1, min(len(problem.excavators), 8)))
@@ -235,7 +235,7 @@ class OfflineAllocator:
         )
 
 
-def build_problem(ctx: MissionContext) -> Problem:
+def build_problem(ctx: GlobalView) -> Problem:
     """The work left, as the schedule sees it: sites no live excavator holds (found or not),
     and every participating excavator and hauler at the time and place it will be free."""
     now = float(ctx.env.now)
@@ -285,7 +285,7 @@ def build_problem(ctx: MissionContext) -> Problem:
     )
 
 
-def _pickup_pending(ctx: MissionContext, rec: AuctionRecord) -> bool:
+def _pickup_pending(ctx: GlobalView, rec: AuctionRecord) -> bool:
     """Is a hauler already coming for a bucket at this auction's place (awarded a transport
     there, or holding one, and not loaded yet)?"""
     here = rec.location
@@ -314,7 +314,7 @@ def _at(task_type: str, location: Point, here: Point) -> bool:
     return task_type == "transport" and dist(location, here) <= NEAR
 
 
-def _promised(ctx: MissionContext, rec: AuctionRecord) -> set[str]:
+def _promised(ctx: GlobalView, rec: AuctionRecord) -> set[str]:
     """Robots with an award pending in another open auction."""
     return {
         a.awards[-1].winner

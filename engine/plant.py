@@ -19,10 +19,6 @@ class Plant:
         self.waits: list[float] = []  # one per hauler that was served, in order
         self.queued = 0  # haulers that found every dock busy
 
-    def queue_length(self) -> int:
-        """Haulers waiting for a dock now."""
-        return len(self._res.queue)
-
     def expected_wait_s(self, unload_s: float) -> float:
         """What a hauler arriving now would wait (on average), from the queue it sees."""
         ahead = len(self._res.queue) + len(self._res.users) - self.docks + 1

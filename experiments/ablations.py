@@ -1,10 +1,10 @@
 """Policy 4's rules switched off one at a time, and the central baseline without its lead.
 
-Each variant is a subclass of a registered policy with one class attribute changed,
-registered by name only (not a number: the numbered registry, the API's enum and the menus
-stay as they are) in every process that runs one. `run_variant` is the sweep's run function
-for them; docs/policies.md's ablation table is rendered from such a sweep
-(`experiments.reproduce`, experiment `ablations`).
+Each variant is a registered policy with some of its parameters changed, registered through
+the registry (`engine.policies.register_variant`) by name only (not a number: the numbered
+registry, the API's enum and the menus stay as they are) in every process that runs one.
+`run_variant` is the sweep's run function for them; docs/policies.md's ablation table is
+rendered from such a sweep (`experiments.reproduce`, experiment `ablations`).
 """
 
 from __future__ import annotations
@@ -30,15 +30,14 @@ VARIANTS: dict[str, tuple[str, dict[str, Any], str]] = {
         "centralized greedy assignment, transports when the bucket is full",
     ),
 }
-"""name → (the registered policy it changes, the class attributes changed, what it is)."""
+"""name → (the registered policy it changes, the parameters changed, what it is)."""
 
 
 def register_variants() -> None:
-    from engine.policies import POLICIES
+    from engine.policies import register_variant
 
-    for name, (base, attrs, _) in VARIANTS.items():
-        if name not in POLICIES:
-            POLICIES[name] = type(name, (POLICIES[base],), {"name": name, **attrs})
+    for name, (base, params, _) in VARIANTS.items():
+        register_variant(name, base, params)
 
 
 def run_variant(scenario: Any, seed: int, policy: str) -> Mapping[str, Any]:

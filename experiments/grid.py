@@ -247,11 +247,6 @@ def make_grid(params: Sequence[GridParam], base: BaseModel, max_points: int) -> 
     return Grid(checked, tuple(points))
 
 
-def grid_manifest(grid: Grid | None) -> list[str] | None:
-    """What binds a directory to a grid: its parameters (their values may grow, like seeds)."""
-    return None if grid is None else grid.paths
-
-
 def parse_grid(args: Iterable[str], file: str | Path | None = None) -> list[GridParam]:
     """Every `--grid` argument and the `--grid-file`'s parameters, in that order."""
     params = [parse_grid_arg(a) for a in args]

@@ -204,11 +204,6 @@ class Comparison:
         """The verdict's test: paired t on per-seed differences if paired, else Welch."""
         return "paired_t" if self.paired_design else "welch"
 
-    @property
-    def check_test(self) -> str:
-        """The rank test that must agree with the primary one (flagged where it does not)."""
-        return "wilcoxon" if self.paired_design else "mwu"
-
     def p_adj(self, test: str) -> float | None:
         value: float | None = getattr(self, f"{test}_p_adj")
         return value

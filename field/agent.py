@@ -24,7 +24,7 @@ import zenoh
 
 from engine.messages import Heartbeat, Hello, Message
 from engine.mission import make_planner
-from engine.policies import POLICIES, make_policy
+from engine.policies import POLICIES, PolicyContext, make_policy
 from engine.scenario import Scenario
 from engine.world import generate_world
 from field.link import Link
@@ -113,9 +113,10 @@ class Agent:
         scenario = Scenario.model_validate(spawn["scenario"])
         self.clock = MissionClock(float(spawn["epoch"]), float(spawn["speed"]))
         seed = int(spawn["seed"])
-        world_rng, _bus, plan_rng, _work = (
-            np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4)
+        world_rng, _bus, plan_rng, _work, policy_rng = (
+            np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(5)
         )
+        self._policy_context = PolicyContext(policy_rng)  # field runs are decentralized only
         # the map (craters, plant, scan grid) is known; the sites are not: the world service
         # tells a robot of a site when it comes within its scan radius
         world = dataclasses.replace(generate_world(scenario, world_rng), sites=())
@@ -125,7 +126,7 @@ class Agent:
             world,
             make_planner("ompl", world, plan_rng),
             self.env,
-            make_policy(spawn["policy"]),
+            make_policy(spawn["policy"], self._policy_context),
         )
         ctx.report = self.report
         ctx.field = RemoteField(self)  # type: ignore[assignment]
@@ -282,7 +283,7 @@ class Agent:
             and POLICIES[cmd["policy"]].decentralized  # (a centralized one needs global state)
         ):
             with self.lock:
-                self.ctx.policy = make_policy(cmd["policy"])
+                self.ctx.policy = make_policy(cmd["policy"], self._policy_context)
                 self.robot.wake()
                 self.robot.policy_changed()
         else:

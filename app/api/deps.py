@@ -117,12 +117,8 @@ async def require_operator(request: Request, credentials: Credentials) -> AsyncI
         address = client_address(request, services.settings.trusted_proxies)
         _limit(services.limiter, f"address:{address}")
         check_token(credentials, services.token)
-    stepper = services.runner.stepper
-    stepper.operators += 1
-    try:
+    with services.runner.operator_request():
         yield
-    finally:
-        stepper.operators -= 1
 
 
 async def require_viewer(request: Request) -> None:

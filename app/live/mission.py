@@ -10,7 +10,7 @@ from time import perf_counter
 from typing import Any
 
 from app.live.hub import Hub
-from app.services.recorder import Recorder
+from app.live.recorder import Recorder
 from engine import Event, Mission
 
 #: Events per batch; a mission this far ahead of a batch still being written waits for it,

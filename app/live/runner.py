@@ -13,20 +13,20 @@ import asyncio
 import contextlib
 import logging
 from collections import Counter
-from collections.abc import Coroutine
+from collections.abc import Coroutine, Iterator
+from contextlib import contextmanager
 from time import perf_counter
-from typing import Any
+from typing import Any, Protocol
 
 from app.db.models import utcnow
 from app.live.gate import Gate
 from app.live.gc_pause import GcPause
 from app.live.hub import Hub
 from app.live.mission import BATCH_EVENTS, LiveMission
+from app.live.modes import dropped_of
+from app.live.recorder import Batch, Recorder
 from app.live.records import auction_dict, describe, failed_record
 from app.live.stepper import Stepper
-from app.services.field_rules import dropped_of
-from app.services.recorder import Batch, Recorder
-from app.services.store import Store
 from app.settings import Settings
 from engine import Event, Mission
 
@@ -44,10 +44,19 @@ def _safe_now(lm: LiveMission) -> float:
         return 0.0
 
 
-class MissionRunner:
-    """Owns the live missions, their hubs, the stepping thread and the loop-side tasks."""
+class BatchWriter(Protocol):
+    """Where the runner writes what live missions produced (`app.services.store.Store`)."""
 
-    def __init__(self, settings: Settings, store: Store) -> None:
+    async def write_batch(self, batch: Batch, changes: dict[str, Any] | None = None) -> None: ...
+
+
+class MissionRunner:
+    """Owns the live missions, their hubs, the stepping thread and the loop-side tasks.
+
+    The services change a live mission only through its methods (`add`, `pause`, `resume`,
+    `set_speed`, `finish`, `snapshot`, ...), holding the gate."""
+
+    def __init__(self, settings: Settings, store: BatchWriter) -> None:
         self.settings = settings
         self.store = store
         self.gate = Gate()
@@ -132,8 +141,10 @@ class MissionRunner:
         speed: float | None,
         paused: bool,
         recorder: Recorder | None = None,
+        row: Any = None,
     ) -> LiveMission:
-        """Start stepping `mission` (already stored under `mission_id`; caller holds the gate)."""
+        """Start stepping `mission` (already stored under `mission_id` as `row`; caller holds
+        the gate)."""
         lm = LiveMission(
             id=mission_id,
             mission=mission,
@@ -142,6 +153,7 @@ class MissionRunner:
             speed=speed,
             paused=paused,
             last_flush=perf_counter(),
+            row=row,
         )
         lm.reanchor()
         mission.subscribe(lambda ev: self._on_event(lm, ev))
@@ -159,6 +171,56 @@ class MissionRunner:
         )
         self.stepper.wake()
         return lm
+
+    # -- what the services ask of a live mission (callers hold the gate) ------------------
+
+    def pause(self, lm: LiveMission) -> float:
+        """Stop stepping `lm` and tell its viewers; the simulation time it paused at."""
+        lm.paused = True
+        lm.hub.publish(lm.status_message())
+        return float(lm.mission.now)
+
+    def resume(self, lm: LiveMission) -> float:
+        """Step `lm` again, paced from now, and tell its viewers; the simulation time."""
+        lm.paused = False
+        lm.reanchor()
+        lm.hub.publish(lm.status_message())
+        self.stepper.wake()
+        return float(lm.mission.now)
+
+    def set_speed(self, lm: LiveMission, speed: float | None) -> float:
+        """Step `lm` at `speed` (None: as fast as possible), paced from now; the time."""
+        lm.speed = speed
+        lm.reanchor()
+        lm.hub.publish(lm.status_message())
+        self.stepper.wake()
+        return float(lm.mission.now)
+
+    def note_row(self, lm: LiveMission, row: Any) -> None:
+        """The stored record's static fields, for rendering `lm` (kept if already known)."""
+        lm.row = lm.row or row
+
+    def snapshot(self, lm: LiveMission) -> tuple[dict[str, Any], dict[str, Any]]:
+        """What a joining viewer starts from: the pending stream flushed, then the frame
+        stream brought up to date (its full frame, with `seq`) and the mission's snapshot
+        whose robots carry the stream's rounded poses, so the next delta applies exactly."""
+        self.publish_pending(lm)
+        m = lm.mission
+        full = self.hub(lm.id).sync(m.frame())
+        lm.last_frame_t = float(m.now)
+        snap = m.snapshot()
+        streamed = {r["name"]: r for r in full["robots"]}
+        snap["robots"] = [{**r, **streamed.get(r["name"], {})} for r in snap["robots"]]
+        return full, snap
+
+    @contextmanager
+    def operator_request(self) -> Iterator[None]:
+        """While an operator's request runs, the stepping thread yields the CPU to it."""
+        self.stepper.operators += 1
+        try:
+            yield
+        finally:
+            self.stepper.operators -= 1
 
     def running_count(self) -> int:
         return sum(1 for lm in self.live.values() if not lm.finishing)

@@ -10,8 +10,8 @@ import asyncio
 from typing import Any
 
 from app.live.mission import LiveMission
+from app.live.modes import is_field
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
-from app.services.field_rules import is_field
 from app.services.missions import MissionService
 from engine import CommandRejected
 

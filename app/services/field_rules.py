@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
+from app.live.modes import is_field
 from app.services.errors import Invalid
 from engine import Scenario
 from engine.scenario import REALISM_OPTIONS
@@ -12,27 +13,9 @@ from engine.scenario import REALISM_OPTIONS
 Speed = float | Literal["max"]
 
 
-def is_field(mission: object) -> bool:
-    """A live field mission (`field.control.FieldMission`, whose `mode` is the stored one):
-    its robots are processes on the wall clock, its operator tasks go over the wire."""
-    return getattr(mission, "mode", "simulated") == "field"
-
-
 def processes_of(mission: Any) -> int:
     """The agent processes a live mission runs (0 for a simulated one)."""
     return int(mission.processes()) if is_field(mission) else 0
-
-
-def dropped_of(mission: Any) -> dict[str, int]:
-    """What a live field mission's processes dropped or refused, by reason (docs/field.md,
-    "Trust"); empty for a simulated one."""
-    if not is_field(mission):
-        return {}
-    r: dict[str, Any] = mission.rejections()
-    out = dict(r["by_reason"])
-    out["reported by agents"] = sum(r["agents"].values())
-    out["refused by the world service"] = r["world_refused"]
-    return out
 
 
 def team_processes(scenario: Scenario) -> int:

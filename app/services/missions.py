@@ -15,6 +15,7 @@ from app.db.models import Mission as MissionRow
 from app.db.models import utcnow
 from app.live.hub import Hub, Viewer, encode
 from app.live.mission import LiveMission
+from app.live.modes import is_field
 from app.live.records import stream_state
 from app.live.runner import MissionRunner
 from app.services import queries
@@ -23,7 +24,6 @@ from app.services.errors import Conflict, LimitExceeded, NotFound
 from app.services.field_rules import (
     Speed,
     check_field,
-    is_field,
     no_resume,
     processes_of,
     team_processes,
@@ -167,8 +167,7 @@ class MissionService:
             mission.close()
             raise
         with self.gate:
-            lm = self.runner.add(row.id, mission, speed=rate, paused=paused)
-            lm.row = row
+            lm = self.runner.add(row.id, mission, speed=rate, paused=paused, row=row)
             return row, live_state(lm, metrics=True)
 
     def _build(
@@ -211,9 +210,7 @@ class MissionService:
         lm = await self.live(mission_id)
         self._on_wall_clock(lm, "paused")
         with self.gate:
-            lm.paused = True
-            t = float(lm.mission.now)
-            lm.hub.publish(lm.status_message())
+            t = self.runner.pause(lm)
         await self._record(lm, t, "pause", {}, {"status": "paused", "sim_time": t})
 
     async def resume(self, mission_id: int) -> None:
@@ -254,11 +251,7 @@ class MissionService:
         with self.gate:
             if lm.row is not None and lm.row.started_at is None:
                 lm.row.started_at = changes["started_at"] = utcnow()
-            lm.paused = False
-            lm.reanchor()
-            t = changes["sim_time"] = float(lm.mission.now)
-            lm.hub.publish(lm.status_message())
-        self.runner.stepper.wake()
+            t = changes["sim_time"] = self.runner.resume(lm)
         await self._record(lm, t, "resume", {}, changes)
 
     async def stop(self, mission_id: int) -> None:
@@ -277,11 +270,7 @@ class MissionService:
         lm = await self.live(mission_id)
         self._on_wall_clock(lm, "given another speed")
         with self.gate:
-            lm.speed = speed_value(speed)
-            lm.reanchor()
-            t = float(lm.mission.now)
-            lm.hub.publish(lm.status_message())
-        self.runner.stepper.wake()
+            t = self.runner.set_speed(lm, speed_value(speed))
         await self._record(lm, t, "speed", {"speed": speed}, {"speed": lm.speed})
 
     async def set_policy(self, mission_id: int, policy: str) -> None:
@@ -351,17 +340,11 @@ class MissionService:
                 message = {"mission": render(row, None), "map": row.world_map, "seq": None}
                 state = stream_state(row.final_state)
                 return self._join(mission_id, ws, {**message, "state": state})
-            lm.row = lm.row or row
+            self.runner.note_row(lm, row)
         with self.gate:
             try:
-                self.runner.publish_pending(lm)
-                m = lm.mission
-                full = self.runner.hub(mission_id).sync(m.frame())
-                lm.last_frame_t = float(m.now)
-                snap = m.snapshot()
-                streamed = {r["name"]: r for r in full["robots"]}
-                snap["robots"] = [{**r, **streamed.get(r["name"], {})} for r in snap["robots"]]
-                message = {"mission": render(lm.row, live_state(lm)), "map": m.world_map()}
+                full, snap = self.runner.snapshot(lm)
+                message = {"mission": render(lm.row, live_state(lm)), "map": lm.mission.world_map()}
                 state = {**stream_state(snap), **{k: full[k] for k in ("scanned", "counters")}}
             except Exception as exc:  # its own data: it ends, alone, and the viewer is told
                 self.runner.quarantine(lm, exc)

@@ -19,9 +19,9 @@ from app.db.models import Event
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
 from app.live.mission import LiveMission
+from app.live.recorder import Recorder
 from app.live.runner import MissionRunner
 from app.services.errors import Conflict
-from app.services.recorder import Recorder
 from app.services.store import Store, stored_counts
 from engine import Mission, parse_scenario
 from engine.mission import PLANNERS
@@ -104,8 +104,6 @@ async def revive(runner: MissionRunner, store: Store, row: MissionRow) -> LiveMi
         m.close()
         raise
     with gate:
-        lm = runner.add(
-            row.id, m, speed=row.speed, paused=True, recorder=Recorder(row.id, m, stored)
+        return runner.add(
+            row.id, m, speed=row.speed, paused=True, recorder=Recorder(row.id, m, stored), row=row
         )
-        lm.row = row
-    return lm

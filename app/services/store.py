@@ -28,7 +28,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
 from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, Sweep, utcnow
-from app.services.recorder import Batch, Stored
+from app.live.recorder import Batch, Stored
 
 T = TypeVar("T")
 
@@ -143,9 +143,6 @@ class Store:
         parts.append(self._submit(_write_batch, rest, changes or {}, priority=priority))
         for part in parts:
             await part
-
-    async def update_mission(self, mission_id: int, changes: dict[str, Any]) -> None:
-        await self._write(_update_mission, mission_id, changes)
 
     async def interrupt_stale(self) -> int:
         """Missions left running by a crash cannot be live now: mark them interrupted."""

@@ -7,7 +7,7 @@ behaviour (scan, dig, haul) lives in a subclass as a simpy process; the protocol
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 import simpy
 
@@ -36,9 +36,6 @@ from engine.policies import OpenAuction
 from engine.robots.charging import Charging
 from engine.robots.core import Assignment
 from engine.robots.recovery import Recovery
-
-if TYPE_CHECKING:
-    pass
 
 
 class Robot(Charging, Recovery):
@@ -97,7 +94,7 @@ class Robot(Charging, Recovery):
         if radio is not None and not radio.in_contact(self.name):
             yield from self.regain_contact()
             return
-        spot = self.ctx.policy.standby(self.ctx, self.name)
+        spot = self.ctx.policy.standby(self.name)
         if spot is None:
             self.state = "idle"
             yield self.wait_for_wake()

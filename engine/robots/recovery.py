@@ -5,15 +5,12 @@ settling false alarms (Holding/Revoke). Split from `base` so each file holds one
 from __future__ import annotations
 
 from collections import deque
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
 from engine.messages import Heartbeat, Holding, Leaving, Probe, Revoke, Takeover
 from engine.planning import PlanningError
 from engine.robots.core import RobotCore
-
-if TYPE_CHECKING:
-    pass
 
 
 class Recovery(RobotCore):

@@ -18,7 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.services.recorder import Recorder
+from app.live.recorder import Recorder
 from engine import Event
 from tests.api.conftest import LiveServer, make_settings, recv_until, wait_for
 

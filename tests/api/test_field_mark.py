@@ -1,5 +1,5 @@
 """A stored mission says whether it was simulated or a field run, and nothing that re-simulates
-(resume after a restart, playback) treats a field run as a simulation (issue 16).
+(resume after a restart, playback) treats a field run as a simulation.
 
 A real field mission is twelve agent processes over Zenoh (tests/field, marked `fleet`, slow);
 here the one thing they change — what `_build_field` hands the runner — is an engine mission

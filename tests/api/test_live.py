@@ -279,7 +279,7 @@ async def _stall_session(port: int, api: httpx.Client, mid: int) -> dict[str, An
 def test_a_stalled_viewer_queues_then_is_dropped_and_others_keep_their_frames(
     tmp_path: Path,
 ) -> None:
-    """Issue 7, the behaviour: a viewer that never reads (a raw socket that stops after the
+    """The slow client, the behaviour: a viewer that never reads (a raw socket that stops after the
     handshake) does not hold up the others. Its sends block, its queue grows while the
     readers keep receiving frames, and once the queue is full the server drops it.
 

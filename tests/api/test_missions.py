@@ -8,6 +8,7 @@ import httpx
 import pytest
 from websockets.exceptions import ConnectionClosed
 
+from engine.policies import unused_number
 from tests.api.conftest import LiveServer, make_settings, recv, run_to_end
 
 FAST = {"planner": "straight"}  # tests of the REST surface, not of paths: fast planner
@@ -98,7 +99,7 @@ def test_invalid_commands_are_422_naming_the_field(api: httpx.Client) -> None:
         api.post(f"{base}/robots/hauler-1/disable", json={"mode": "gently"})
     )
     assert "body.speed" in _message(api.put(f"{base}/speed", json={"speed": -1}))
-    assert "body.policy" in _message(api.put(f"{base}/policy", json={"policy": 9}))
+    assert "body.policy" in _message(api.put(f"{base}/policy", json={"policy": unused_number()}))
     assert "query.limit" in _message(api.get(f"{base}/events", params={"limit": 10**6}))
     assert "path.mission_id" in _message(api.get("/api/missions/abc"))
 

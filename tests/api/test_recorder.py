@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from app.services.recorder import Recorder, Stored
+from app.live.recorder import Recorder, Stored
 
 
 @dataclass

@@ -8,7 +8,10 @@ from typing import Any
 import httpx
 import pytest
 
+from engine.policies import unused_number
 from tests.api.conftest import LiveServer
+
+UNKNOWN = unused_number()  # a number no policy holds
 
 
 def _refused(api: httpx.Client, method: str, path: str, body: dict[str, Any], field: str) -> None:
@@ -108,10 +111,10 @@ def test_a_body_not_sent_as_json_says_what_to_send(api: httpx.Client, content_ty
             "body.speed: must be 0 (pause), at least 0.1, or 'max'",
         ),
         ("/api/missions", {"speed": 0.05}, "body.speed: must be 0 (pause), at least 0.1, or 'max'"),
-        ("/api/missions", {"policy": 9}, "body.policy: "),
+        ("/api/missions", {"policy": UNKNOWN}, "body.policy: "),
         ("/api/sweeps", {"seeds": {"from": 1}}, "body.seeds.to: Field required"),
         ("/api/sweeps", {"seeds": 5.5}, "body.seeds: "),
-        ("/api/sweeps", {"policies": [9]}, "body.policies.0: "),
+        ("/api/sweeps", {"policies": [UNKNOWN]}, "body.policies.0: "),
     ],
 )
 def test_a_field_of_two_types_is_named_alone(

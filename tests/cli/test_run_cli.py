@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
+from engine.policies import unused_number
 
 REQUIRED = {
     "policy", "seed", "completed", "makespan_s", "sites_found", "sites_total",
@@ -69,7 +70,7 @@ def test_the_human_summary_names_the_figures():
 @pytest.mark.parametrize(
     ("args", "says"),
     [
-        (["--policy", "7", "--seed", "1"], "policy"),
+        (["--policy", str(unused_number()), "--seed", "1"], "policy"),
         (["--policy", "1", "--seed", "1", "--scale", "0"], "--scale"),
         (["--policy", "1", "--seed", "1", "--loss", "2"], "loss"),
         (["--policy", "1", "--seed", "1", "--fail", "hauler-2"], "--fail"),

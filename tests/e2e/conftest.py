@@ -69,10 +69,13 @@ def browser_type_launch_args(browser_type_launch_args: dict[str, Any]) -> dict[s
 
 
 class Server:
-    """The app in a uvicorn subprocess on a free port, with its own data folder."""
+    """The app in a uvicorn subprocess on a free port, with its own data folder (`cwd` and
+    `env`: where it runs and what it adds to the environment, REPO and nothing by default)."""
 
-    def __init__(self, data_dir: Path) -> None:
+    def __init__(self, data_dir: Path, cwd: Path = REPO, env: dict[str, str] | None = None) -> None:
         self.data_dir = data_dir
+        self.cwd = cwd
+        self.extra_env = env or {}
         self.port = 0
         self.proc: subprocess.Popen[bytes] | None = None
         self.log = data_dir / "server.log"
@@ -92,6 +95,7 @@ class Server:
             "REGOLITH_TOKEN": TOKEN,
             "REGOLITH_DATA_DIR": str(self.data_dir),
             "REGOLITH_FRONTEND_DIR": str(REPO / "frontend"),
+            **self.extra_env,
         }
         cmd = [
             sys.executable,
@@ -107,7 +111,7 @@ class Server:
             "warning",
         ]
         with self.log.open("ab") as out:
-            self.proc = subprocess.Popen(cmd, cwd=REPO, env=env, stdout=out, stderr=out)
+            self.proc = subprocess.Popen(cmd, cwd=self.cwd, env=env, stdout=out, stderr=out)
         deadline = time.monotonic() + START_S  # as long as it is alive (tests/progress.py)
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:

@@ -1,4 +1,4 @@
-"""Compare never pools what differs (issue 13): runs of other scenarios are apart, a run whose
+"""Compare never pools what differs: runs of other scenarios are apart, a run whose
 policy was switched live counts under no single policy, and both show in the lists."""
 
 from __future__ import annotations

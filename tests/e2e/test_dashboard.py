@@ -1,4 +1,4 @@
-"""The dashboard in a real browser against a real server (issue 5's acceptance list)."""
+"""The dashboard in a real browser against a real server (its acceptance list)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A field run is marked as one on the dashboard (issue 16): a small "field" mark in the run
+"""A field run is marked as one on the dashboard: a small "field" mark in the run
 history and the live header, no Resume for an interrupted field run, and compare keeps field
 runs apart from simulated ones.
 

@@ -1,5 +1,5 @@
 """The dashboard's layout at 1280×800, 1024×768 and on a phone (390×844): nothing overlaps
-that should not, nothing is off-screen (issue 13). Screenshots go to test-artifacts/e2e/ and,
+that should not, nothing is off-screen. Screenshots go to test-artifacts/e2e/ and,
 with REGOLITH_DOCS_SCREENSHOT=1, to docs/img/ (the pictures docs/dashboard.md shows)."""
 
 from __future__ import annotations

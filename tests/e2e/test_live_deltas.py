@@ -1,4 +1,4 @@
-"""The dashboard on a delta stream at scale (issue 14): a 120-robot mission's map, robot list
+"""The dashboard on a delta stream at scale: a 120-robot mission's map, robot list
 and counters show exactly the stream's state (a fresh snapshot taken beside it agrees), the
 virtualized robot list renders only rows in view yet reaches every robot, and the stream
 ends at the stored state."""

@@ -1,4 +1,4 @@
-"""The live view never shows stale or made-up data (issue 13): at the end it shows the stored
+"""The live view never shows stale or made-up data: at the end it shows the stored
 ending exactly; an unknown mission says so; a token is checked before it is kept."""
 
 from __future__ import annotations

@@ -3,7 +3,9 @@
 import math
 from dataclasses import dataclass
 
-from engine.auction_rules import rank_bids, select_winner
+import pytest
+
+from engine.auction_rules import rank_bids
 from engine.policies import (
     AnticipatoryCoalitions,
     FirstComeFirstServed,
@@ -13,6 +15,7 @@ from engine.policies import (
     RelaxedCoalitions,
     coalition_partner,
     resolve_policy,
+    unused_number,
 )
 
 
@@ -21,15 +24,30 @@ def auction(aid: str, opened: float, task: str = "transport") -> OpenAuction:
 
 
 def test_highest_utility_wins_and_minus_inf_never_does():
-    assert select_winner({"a": -10.0, "b": -3.0, "c": -math.inf}) == "b"
-    assert select_winner({"a": -math.inf, "b": -math.inf}) is None
+    assert rank_bids({"a": -math.inf, "b": -math.inf}) == []
     assert rank_bids({"a": -10.0, "b": -3.0, "c": -math.inf}) == ["b", "a"]
 
 
 def test_declined_bidders_are_skipped_and_ties_break_by_name():
-    assert select_winner({"a": -3.0, "b": -3.0}) == "a"
-    assert select_winner({"a": -3.0, "b": -3.0}, excluded={"a"}) == "b"
-    assert select_winner({"a": -3.0}, excluded={"a"}) is None
+    assert rank_bids({"a": -3.0, "b": -3.0}) == ["a", "b"]
+    assert rank_bids({"a": -3.0, "b": -3.0}, excluded={"a"}) == ["b"]
+    assert rank_bids({"a": -3.0}, excluded={"a"}) == []
+
+
+def test_the_tie_hook_decides_among_exact_ties_at_the_top_only():
+    asked: list[list[str]] = []
+
+    def last(tied):
+        asked.append(list(tied))
+        return tied[-1]
+
+    bids = {"c": -3.0, "a": -3.0, "b": -3.0, "d": -5.0}
+    assert rank_bids(bids, (), last) == ["c", "a", "b", "d"] and asked == [["a", "b", "c"]]
+    assert rank_bids({"a": -3.0, "b": -4.0}, (), last) == ["a", "b"]  # no tie: not asked
+    assert rank_bids(bids, {"c"}, last) == ["b", "a", "d"]
+    assert rank_bids(bids, (), lambda tied: tied[0]) == rank_bids(bids)  # the default rule
+    with pytest.raises(ValueError, match="not one of the tied"):
+        rank_bids(bids, (), lambda tied: "d")
 
 
 @dataclass
@@ -98,7 +116,7 @@ def test_policy_names_resolve_from_numbers_and_names():
     assert resolve_policy(3) == "nearest"
     assert resolve_policy("FCFS") == "fcfs"
     try:
-        resolve_policy("7")
+        resolve_policy(str(unused_number()))
     except ValueError as exc:
         assert "policy" in str(exc)
     else:  # pragma: no cover

@@ -33,7 +33,7 @@ from engine import POLICIES, Mission
 from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
 from engine.liveness import Liveness
-from engine.policies import FirstComeFirstServed, OpenAuction
+from engine.policies import FirstComeFirstServed, OpenAuction, check_policy
 from engine.robots.core import RobotCore
 from engine.scenario import Crater
 from engine.world import CLEARANCE, CraterIndex
@@ -186,7 +186,7 @@ def test_crater_index_answers_as_a_look_at_every_crater(craters, segments):
 def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_list():
     """A busy robot is not asked again while its list and bids stay as they are only under
     a policy that declares it; a subclass that changes how targets or bids are chosen (a
-    coalition hauler looks at its partner) loses the declaration unless it restates it."""
+    coalition hauler looks at its partner) must state it again, or the registry refuses it."""
 
     class ByPartner(FirstComeFirstServed):
         def bid_targets(self, view: Any, auctions: Any) -> Any:
@@ -199,7 +199,8 @@ def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_l
             return list(auctions)[-1:]
 
     assert FirstComeFirstServed.targets_from_list
-    assert not ByPartner.targets_from_list
-    assert Restated.targets_from_list
+    with pytest.raises(ValueError, match="ByPartner: overrides bid_targets"):
+        check_policy(ByPartner)
+    check_policy(Restated)
     assert not POLICIES["coalition"].targets_from_list
     assert not POLICIES["lookahead"].targets_from_list

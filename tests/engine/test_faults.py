@@ -1,4 +1,4 @@
-"""Issue 3: robots fail, messages get lost, robots join — and no mineral or site is lost."""
+"""Faults: robots fail, messages get lost, robots join — and no mineral or site is lost."""
 
 import pytest
 

@@ -1,4 +1,4 @@
-"""Issue 2's acceptance: every registered policy (the research's three, Policy 4 and the
+"""Every registered policy (the research's three, Policy 4 and the
 centralized baseline) completes the reference scenario on seeds 0–9."""
 
 import pytest

@@ -8,6 +8,9 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
+from engine.policies import unused_number
+
+UNKNOWN = unused_number()  # a number no policy holds
 
 
 def invoke(*args: str) -> tuple[int, str]:
@@ -20,7 +23,7 @@ def invoke(*args: str) -> tuple[int, str]:
     [
         (["--seeds", "5-2"], "--seeds '5-2': range 5-2 is empty"),
         (["--seeds", "x"], "--seeds 'x'"),
-        (["--policies", "9"], "--policies: unknown policy '9'"),
+        (["--policies", str(UNKNOWN)], f"--policies: unknown policy '{UNKNOWN}'"),
         (["--policies", "1,nope"], "unknown policy 'nope'"),
         (["--scale", "0"], "--scale 0"),
         (["--workers", "0"], "--workers 0"),

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
+from app.live.recorder import auction_row
 from app.live.records import auction_dict
-from app.services.recorder import auction_row
 from engine import Mission
 from engine.scenario import reference_scenario
 from field.intake import Recorder

@@ -1,8 +1,9 @@
 """Turns what a live mission produced since the last call into database rows.
 
-Pure bookkeeping on the stepping thread: it reads the engine's append-only event log and
-auction records by cursor and remembers how many bids and awards each auction already has
-stored, so a batch holds only new rows and the auctions whose outcome changed.
+Pure bookkeeping, called by the live runner on the event loop while it holds the engine's
+gate (`app/live/gate.py`), so no step runs meanwhile: it reads the engine's append-only event
+log and auction records by cursor and remembers how many bids and awards each auction already
+has stored, so a batch holds only new rows and the auctions whose outcome changed.
 """
 
 from __future__ import annotations
