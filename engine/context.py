@@ -19,7 +19,7 @@ from engine.field import Field
 from engine.liveness import Liveness
 from engine.messages import Location, Message, TaskType
 from engine.observer import Observer
-from engine.planning import PathPlanner
+from engine.planning import PathPlanner, PlanningError
 from engine.scenario import Protocol as ProtocolSettings
 from engine.scenario import Scenario
 from engine.world import World
@@ -102,6 +102,13 @@ class MissionContext:
     ) -> list[str] | None:
         oracle = self.policy.allocator()
         return None if oracle is None else oracle.rank(self, rec, bids, excluded)
+
+    def road_to_plant(self, start: Location) -> tuple[Location, ...]:
+        """The planned road from here to the plant (empty if there is none)."""
+        try:
+            return self.planner.plan(start, self.world.plant)
+        except PlanningError:
+            return ()
 
     # --- across the field and the robots ---------------------------------------------------
     def minerals_in(self) -> dict[str, int]:

@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
-from engine.auction_house import AuctionHouse
 from engine.auction_rules import Allocation
 from engine.field import NEAR
 from engine.geometry import dist
@@ -205,9 +204,7 @@ class Robot(Charging, Recovery):
         if self.peer_type(msg.sender) == self.rtype:
             self.peer_open.setdefault(msg.sender, {})[msg.auction_id] = info
         # a duplicate auction for a task I am auctioning: the smaller name keeps it
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == msg.task_id and rec.id != msg.auction_id and msg.sender < self.name:
-                self.house.cancel(rec.id)
+        self.house.yield_duplicate(msg.auction_id, msg.task_id, msg.sender)
         self.on_task_heard(info)
         if msg.task_type == self.capability:
             self.note_auction(info)
@@ -268,17 +265,7 @@ class Robot(Charging, Recovery):
         # only the robot a task was allocated to ends that allocation (a duplicate holder's
         # "void" must not end the real holder's watch)
         self.end_peer_alloc(msg.task_id, msg.sender)
-        alloc = self.house.allocations.get(msg.task_id)
-        if alloc is not None and alloc.winner == msg.sender:
-            del self.house.allocations[msg.task_id]
-        else:
-            alloc = None
-        if alloc is not None and msg.outcome == "released":
-            self.reauction(alloc, None)
-        elif msg.outcome == "done":
-            for rec in list(self.house.open_auctions.values()):
-                if rec.task_id == msg.task_id:
-                    self.house.cancel(rec.id)
+        self.house.task_done(msg)
         self.on_task_done_heard(msg)
 
     def on_task_done_heard(self, msg: TaskDone) -> None:
@@ -367,7 +354,7 @@ class Robot(Charging, Recovery):
         self.current = None
         self.queue.clear()
         self._reset_knowledge()
-        self.house = AuctionHouse(self.name, self.ctx, self._on_allocated)
+        self.house = self._new_house()
         self.rejoining = True
         self.taken_back = set()
         self.start(joined_late=True)

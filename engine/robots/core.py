@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import simpy
 
 from engine.auction_house import AuctionHouse
-from engine.auction_rules import Allocation, Duties
+from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
 from engine.geometry import Point, path_length, point_along, remaining_path
 from engine.messages import Message, TaskType
 from engine.planning import Path
@@ -79,7 +79,7 @@ class RobotCore:
         self.distance = 0.0
         self.motion: Motion | None = None
         self.partner = coalition_partner(name)  # Policy 2's pairing rule, fixed by the name
-        self.house = AuctionHouse(name, ctx, self._on_allocated)
+        self.house = self._new_house()
         self._every_round = ctx.scenario.protocol.busy_bid == "every_round"
         self._silent_when_busy = ctx.scenario.protocol.busy_bid == "silent"
         self.current: Assignment | None = None
@@ -109,6 +109,21 @@ class RobotCore:
         )
         ctx.liveness.add(name)
         ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears)
+
+    def _new_house(self) -> AuctionHouse:
+        """My auctioneer role, for a new life: it offers a lost task again unless a live peer
+        of my type already does (`peer_handles`)."""
+        return AuctionHouse(
+            self.name,
+            self.ctx,
+            kind=AUCTION_KINDS.get(self.rtype, "operator"),
+            peer_offers=self.peer_handles,
+            holders_carry=self.rtype != "scout",  # a site does not move with its excavator
+        )
+
+    def peer_handles(self, task_id: str) -> bool:
+        """Does a live peer of my type run an auction for this task (`Recovery`)?"""
+        raise NotImplementedError
 
     def _reset_knowledge(self) -> None:
         self.open_auctions: dict[str, OpenAuction] = {}  # the ones I can serve
@@ -333,9 +348,6 @@ class RobotCore:
 
     def handoffs_received(self) -> tuple[str, ...]:
         return ()
-
-    def _on_allocated(self, alloc: Allocation) -> None:
-        """Hook from the auction house when one of my auctions closes."""
 
     def on_message(self, msg: Message) -> None:
         """Every message the bus brings me (`Robot` dispatches them)."""

@@ -169,7 +169,7 @@ class Excavator(TransportAuctioneer):
             if not self.ahead:
                 self._auction_ahead(site)  # more in the pile than expected: one more now
             for i, task_id in enumerate(self.ahead):
-                if task_id not in self.house.allocations and not self._transport_open(task_id):
+                if not self.house.watching(task_id) and not self._transport_open(task_id):
                     # it ended without this pile's mineral (void, lost, or its hauler carried
                     # another): a new transport, under a new id (the old one is over for good)
                     self.ahead[i] = self._transport_id("t")
@@ -211,7 +211,7 @@ class Excavator(TransportAuctioneer):
         self.waiting_for = task_id
         offered = False
         while self.bucket:
-            on_its_way = task_id in self.house.allocations
+            on_its_way = self.house.watching(task_id)
             partner = self.partner_here
             if (
                 not on_its_way
@@ -251,15 +251,17 @@ class Excavator(TransportAuctioneer):
         task_id = self.waiting_for
         assert task_id is not None
         self.bucket = 0
-        if task_id not in self.house.allocations:
+        if not self.house.watching(task_id):
             # a coalition hand-over, outside any auction: watch its delivery all the same
-            self.house.allocations[task_id] = Allocation(
-                f"{self.name}/coalition",
-                task_id,
-                "transport",
-                (site.x, site.y),
-                hauler.name,
-                float(self.env.now),
+            self.house.watch(
+                Allocation(
+                    f"{self.name}/coalition",
+                    task_id,
+                    "transport",
+                    (site.x, site.y),
+                    hauler.name,
+                    float(self.env.now),
+                )
             )
         hauler.receive(self, task_id)
         self.ctx.observer.emit(
@@ -309,7 +311,8 @@ class Excavator(TransportAuctioneer):
 
     def partner_arrived(self, hauler: Hauler) -> None:
         self.partner_here = hauler
-        rec_open = any(r.task_id == self.waiting_for for r in self.house.open_auctions.values())
+        waiting_for = self.waiting_for
+        rec_open = waiting_for is not None and self.house.is_open(waiting_for)
         if self._arrival is not None and not self._arrival.triggered and rec_open:
             self._arrival.succeed(hauler)
 
@@ -341,15 +344,9 @@ class Excavator(TransportAuctioneer):
         pile = {*self.ahead, self.waiting_for}
         board = self.ctx.liveness
         known = [
-            (r.task_type, r.location)
-            for r in self.house.open_auctions.values()
-            if r.task_id not in pile
+            (r.task_type, r.location) for r in self.house.open_records() if r.task_id not in pile
         ]
-        known += [
-            (a.task_type, a.location)
-            for a in self.house.allocations.values()
-            if a.task_id not in pile
-        ]
+        known += [(a.task_type, a.location) for a in self.house.watches() if a.task_id not in pile]
         for allocs in self.peer_alloc.values():
             for a in allocs.values():
                 hb = board.last_heartbeat(self.name, a.winner)

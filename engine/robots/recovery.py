@@ -7,9 +7,8 @@ from __future__ import annotations
 from collections import deque
 from typing import TYPE_CHECKING, Any
 
-from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
+from engine.auction_rules import AUCTION_KINDS, Duties
 from engine.messages import Heartbeat, Holding, Leaving, Probe, Revoke, Takeover
-from engine.planning import PlanningError
 from engine.robots.core import RobotCore
 
 if TYPE_CHECKING:
@@ -36,7 +35,7 @@ class Recovery(RobotCore):
                 y=pos[1],
                 state=self.state,
                 tasks=tasks,
-                open_auctions=tuple(self.house.open_auctions),
+                open_auctions=self.house.open_ids(),
                 progress=self.progress(),
                 # the route matters only to whoever must search for a mineral I carry
                 path=tuple(self.remaining_route()[:16]) if load else (),
@@ -77,16 +76,7 @@ class Recovery(RobotCore):
             if hb is not None and hb.t > info.opened_at + 1e-9 and aid not in hb.open_auctions:
                 self.forget_auction(aid)
         # a winner that neither lists a task nor reports it done has dropped it
-        grace = 2 * proto.heartbeat_s + proto.ack_timeout_s
-        for tid, alloc in list(self.house.allocations.items()):
-            hb = board.last_heartbeat(self.name, alloc.winner)
-            if hb is None or hb.t < alloc.since + grace:
-                continue
-            if tid in hb.done:
-                del self.house.allocations[tid]
-            elif tid not in hb.tasks:
-                del self.house.allocations[tid]
-                self.reauction(alloc, hb)
+        self.house.check_winners(2 * proto.heartbeat_s + proto.ack_timeout_s)
 
     def _probe(self, peer: str) -> Any:
         """Ask a silent peer directly a few times before declaring it failed: on a lossy bus a
@@ -107,11 +97,7 @@ class Recovery(RobotCore):
     def peer_down(self, peer: str) -> None:
         """`peer` fell silent or left: re-auction what it held from me, adopt its duties."""
         self.ctx.observer.emit("failure_detected", by=self.name, robot=peer)
-        board = self.ctx.liveness
-        for tid, alloc in list(self.house.allocations.items()):
-            if alloc.winner == peer:
-                del self.house.allocations[tid]
-                self.reauction(alloc, board.last_heartbeat(self.name, peer))
+        self.house.winner_down(peer)
         for aid, info in list(self.open_auctions.items()):
             if info.auctioneer == peer:
                 self.forget_auction(aid)
@@ -152,9 +138,9 @@ class Recovery(RobotCore):
         for tid, alloc in self.forget_peer_allocs(peer).items():
             tasks.append(tid)
             if alloc.winner in self.down:  # search where its holder was last heard carrying it
-                self.reauction(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
+                self.house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
             else:
-                self.house.allocations[tid] = alloc
+                self.house.watch(alloc)
         self.adopted[peer] = opened
         self.adopted_tasks[peer] = tuple(tasks)
         self.adopted_cells[peer] = tuple(self.adopt_extra(peer))
@@ -174,35 +160,6 @@ class Recovery(RobotCore):
     def adopt_extra(self, peer: str) -> list[int]:
         """Hook: scouts take over the peer's unscanned cells."""
         return []
-
-    def reauction(self, alloc: Allocation, hb: Heartbeat | None) -> None:
-        """Offer a task again whose holder failed, released it or dropped it (unless a live
-        peer already offers or watches it: two watchers back from failures, say)."""
-        if self.peer_handles(alloc.task_id):
-            return
-        kind = AUCTION_KINDS.get(self.rtype, "operator")
-        location, search = alloc.location, alloc.search_path
-        if hb is not None and alloc.task_id not in hb.tasks:
-            # back from a failure without it, say: what it last said while it held the task
-            hb = self.ctx.liveness.last_heartbeat_about(self.name, alloc.winner, alloc.task_id)
-        if hb is not None and hb.load > 0 and hb.tasks[:1] == (alloc.task_id,):
-            # it was carrying the mineral: search along its route from where it was last heard
-            location, search = (hb.x, hb.y), hb.path
-        elif alloc.task_type == "transport" and not search:
-            # the mineral may have left the bucket before the hauler fell silent: look at the
-            # pick-up point first, then along the road from there to the plant
-            try:
-                search = self.ctx.planner.plan(location, self.ctx.world.plant)
-            except PlanningError:
-                search = ()
-        self.house.open(
-            alloc.task_type,
-            location,
-            alloc.task_id,
-            kind=kind,
-            search_path=search,
-            reauction_of=alloc.auction_id,
-        )
 
     # --- coming back from a failure -------------------------------------------------------
     def rejoin(self) -> Any:
@@ -253,20 +210,7 @@ class Recovery(RobotCore):
 
     def _on_holding(self, msg: Holding) -> None:
         """A robot I re-auctioned a task from is alive and still on it: it keeps the task."""
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == msg.task_id:
-                self.house.cancel(rec.id)
-                self.house.allocations[msg.task_id] = Allocation(
-                    rec.id, rec.task_id, rec.task_type, rec.location, msg.sender, self.env.now
-                )
-                return
-        alloc = self.house.allocations.get(msg.task_id)
-        if alloc is not None and alloc.winner != msg.sender:
-            self.ctx.bus.publish(Revoke(sender=self.name, task_id=msg.task_id, robot=alloc.winner))
-            self.ctx.observer.emit(
-                "task_revoked", by=self.name, robot=alloc.winner, task_id=msg.task_id
-            )
-            alloc.winner = msg.sender
+        self.house.holder_says(msg.task_id, msg.sender)
 
     def _on_revoke(self, msg: Revoke) -> None:
         if msg.robot != self.name:
@@ -301,11 +245,7 @@ class Recovery(RobotCore):
             return
         mine = self.adopted.get(msg.failed)
         if mine is not None and msg.sender < self.name:
-            for aid in mine:
-                self.house.cancel(aid)
-            for tid, alloc in list(self.house.allocations.items()):
-                if alloc.auction_id in mine:
-                    del self.house.allocations[tid]
+            self.house.drop_adopted(mine)
             self._forget_adoption(msg.failed)
             self.on_adoption_undone(msg.failed)
         self.peer_open.pop(msg.failed, None)

@@ -133,9 +133,6 @@ class Scout(Robot):
         if info.task_type == "excavate":
             self.known_tasks.add(info.task_id)
 
-    def reauction(self, alloc: Any, hb: Any) -> None:
-        super().reauction(alloc, None)  # a site does not move with its excavator
-
     # --- taking over a silent scout's cells ----------------------------------------------
     def adopt_extra(self, peer: str) -> list[int]:
         hb = self.ctx.liveness.last_heartbeat(self.name, peer)

@@ -35,12 +35,10 @@ class TransportAuctioneer(Robot):
         return f"{self.name}#{kind}{self._transport_serial}"
 
     def _transport_open(self, task_id: str) -> bool:
-        return any(r.task_id == task_id for r in self.house.open_auctions.values())
+        return self.house.is_open(task_id)
 
     def _cancel_transport(self, task_id: str) -> None:
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == task_id:
-                self.house.cancel(rec.id)  # the partner came back before anyone won it
+        self.house.cancel_task(task_id)  # the partner came back before anyone won it
 
     # --- radio range: a transport nobody hears ---------------------------------------------
     def unheard(self, task_id: str) -> bool:
@@ -48,7 +46,7 @@ class TransportAuctioneer(Robot):
         while I am out of the base station's reach (so, likely, of every idle hauler)?"""
         radio = self.ctx.radio
         assert radio is not None
-        if task_id in self.house.allocations or radio.in_contact(self.name):
+        if self.house.watching(task_id) or radio.in_contact(self.name):
             return False
         proto = self.ctx.scenario.protocol
         now = float(self.env.now)
@@ -56,7 +54,7 @@ class TransportAuctioneer(Robot):
             return False  # just back from reporting in: a hauler may be on its way
         return any(
             r.task_id == task_id and now - r.opened_at > 2 * proto.retry_s
-            for r in self.house.open_auctions.values()
+            for r in self.house.open_records()
         )
 
     def report_in(self, site: SiteState, task_id: str) -> Any:
@@ -79,7 +77,7 @@ class TransportAuctioneer(Robot):
         until = float(self.env.now) + 3 * proto.retry_s
         self.state = "reporting"  # (not "waiting": a partner must not take this for a site)
         while (
-            task_id not in self.house.allocations
+            not self.house.watching(task_id)
             and self._transport_open(task_id)
             and self.env.now < until
         ):
