@@ -24,6 +24,7 @@ Bids = list[tuple["OpenAuction", int, float]]
 class RobotView(Protocol):
     """What a policy may read of a robot."""
 
+    name: str
     rtype: str
 
     def paired(self) -> bool:

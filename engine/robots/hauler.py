@@ -11,6 +11,7 @@ from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
 from engine.policies import OpenAuction, coalition_partner
 from engine.robots.base import Robot
+from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
 
 if TYPE_CHECKING:
@@ -27,6 +28,7 @@ class Hauler(Robot):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
+        self.bidder = Bidder(self)
         self.bin = 0
         self._loaded: simpy.Event | None = None
         self.partner_site: Point | None = None
@@ -43,7 +45,7 @@ class Hauler(Robot):
         if self.following():
             site = self.partner_site
             assert site is not None
-            if not self.energy_allows("transport", site):
+            if self.charging is not None and not self.charging.allows("transport", site):
                 return  # to the charger first (`Robot.life`)
             yield from self.follow_partner()
         else:
@@ -52,7 +54,7 @@ class Hauler(Robot):
     # --- auctioned transport ------------------------------------------------------------
     def transport(self, a: Assignment) -> Any:
         self.state = "travelling"
-        yield from self.go_to(a.location)
+        yield from self.mobility.go_to(a.location)
         exc = self._excavator_here(lambda e: e.expects(a.task_id))
         if exc is None and (self.ctx.policy.early_transports() or self.ctx.radio is not None):
             # (radio range: the excavator may have driven into reach to offer this transport)
@@ -80,7 +82,7 @@ class Hauler(Robot):
         drive_s = dist((hb.x, hb.y), a.location) / cfg.speeds.excavator
         deadline = hb.t + drive_s + cfg.protocol.failure_timeout_s
         self.state = "waiting"
-        while self.env.now < deadline and self.peer_alive(a.auctioneer):
+        while self.env.now < deadline and self.recovery.peer_alive(a.auctioneer):
             exc = self._excavator_here(lambda e: e.expects(a.task_id))
             if exc is not None:
                 return exc
@@ -133,27 +135,29 @@ class Hauler(Robot):
                 if segment_point_distance(a, b, (g.x, g.y)) <= SENSE
             )
             for _, _, spot in seen:
-                yield from self.go_to(spot)
+                yield from self.mobility.go_to(spot)
                 if self.ctx.field.ground_near(self.pos, SENSE) is not None:
                     return
-            yield from self.go_to(b)
+            yield from self.mobility.go_to(b)
 
     def pick_from_ground(self, p: Point) -> Any:
         g = self.ctx.field.ground_near(p, SENSE)
         if g is None:
             return
         if dist(p, (g.x, g.y)) > NEAR:
-            yield from self.go_to((g.x, g.y))
+            yield from self.mobility.go_to((g.x, g.y))
         self.state = "loading"
-        yield self.env.timeout(self.work_s(self.ctx.scenario.timing.transfer_s))
+        yield self.env.timeout(self.mobility.work_s(self.ctx.scenario.timing.transfer_s))
         if g in self.ctx.field.ground:
             self.bin = 1
             self.ctx.field.pick_ground(g, self.name)
 
     def deliver(self) -> Any:
         self.state = "carrying"
-        yield from self.drive(self.ctx.planner.plan(self.pos, self.ctx.world.plant), report=True)
-        unload_s = self.work_s(self.ctx.scenario.timing.unload_s)
+        yield from self.mobility.drive(
+            self.ctx.planner.plan(self.pos, self.ctx.world.plant), report=True
+        )
+        unload_s = self.mobility.work_s(self.ctx.scenario.timing.unload_s)
         docks = self.ctx.docks
         if docks is None:
             self.state = "unloading"
@@ -172,7 +176,7 @@ class Hauler(Robot):
     def free_at(self) -> tuple[float, Point]:
         """Done with what it holds at the plant, after the current trip and every queued one
         (straight-line estimates for all but the bid's own leg)."""
-        here = self.position()[0]
+        here = self.mobility.position()[0]
         if self.current is None and not self.queue:
             return 0.0, here
         timing, v, plant = self.ctx.scenario.timing, self.speed, self.ctx.world.plant
@@ -180,7 +184,7 @@ class Hauler(Robot):
         cur = self.current
         if cur is not None:
             if self.bin:
-                route = self.remaining_route()
+                route = self.mobility.remaining_route()
                 t += (path_length(route) if len(route) > 1 else dist(here, plant)) / v
             else:
                 t += (dist(here, cur.location) + dist(cur.location, plant)) / v + timing.transfer_s
@@ -196,7 +200,7 @@ class Hauler(Robot):
         site = self.partner_site
         assert site is not None
         self.state = "travelling"
-        yield from self.go_to(site)
+        yield from self.mobility.go_to(site)
         partner = self.partner
         if self.queue or not self.following():
             return  # won a task or was released while driving: back to the main loop
@@ -228,6 +232,15 @@ class Hauler(Robot):
             if self.current is not None:
                 self.finish(self.current)
 
+    def paired(self) -> bool:
+        """Paired with a live partner under a coalition policy (Policy 2)."""
+        partner = self.partner
+        return (
+            partner is not None
+            and self.ctx.policy.coalitions()
+            and self.recovery.peer_alive(partner)
+        )
+
     def partner_working(self) -> bool:
         return self.partner_site is not None
 
@@ -238,9 +251,13 @@ class Hauler(Robot):
     def stranded(self, a: OpenAuction) -> bool:
         """No unpaired hauler is alive to take this transport (paired haulers take only their
         partner's minerals, and a partner never bids), as far as I know."""
-        for h in self.peers_of_type("hauler"):
+        for h in self.recovery.peers_of_type("hauler"):
             mate = coalition_partner(h)
-            if h != self.name and self.peer_alive(h) and not (mate and self.peer_alive(mate)):
+            if (
+                h != self.name
+                and self.recovery.peer_alive(h)
+                and not (mate and self.recovery.peer_alive(mate))
+            ):
                 return False  # an unpaired hauler is alive: it can carry
         return True
 
