@@ -19,30 +19,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypedDict
 
-from engine.bidding import BidMemory, Bids, RobotView, distance_bids, time_bids
-from engine.messages import Location, TaskType
+from engine.bidding import BidMemory, Bids, OpenAuction, RobotView, distance_bids, time_bids
+from engine.messages import Location
 
 if TYPE_CHECKING:
     from engine.central import Allocator
     from engine.context import MissionContext
     from engine.offline import OfflineAllocator
-
-
-@dataclass(frozen=True, slots=True)
-class OpenAuction:
-    """What a bidder knows of an auction, from its announcement."""
-
-    auction_id: str
-    auctioneer: str
-    task_type: TaskType
-    location: Location
-    task_id: str
-    opened_at: float
-    search_path: tuple[Location, ...] = ()
-
-    @property
-    def order(self) -> tuple[float, str]:
-        return (self.opened_at, self.auction_id)
 
 
 @dataclass(frozen=True, slots=True)

@@ -24,6 +24,7 @@ import simpy
 
 from engine.auction_house import AuctionHouse
 from engine.auction_rules import AUCTION_KINDS, Allocation
+from engine.bidding import OpenAuction
 from engine.field import NEAR
 from engine.geometry import Point, dist
 from engine.messages import (
@@ -44,7 +45,7 @@ from engine.messages import (
     TaskType,
 )
 from engine.planning import PlanningError
-from engine.policies import OpenAuction, coalition_partner
+from engine.policies import coalition_partner
 from engine.robots.charging import Charging
 from engine.robots.core import Assignment
 from engine.robots.mobility import Mobility, Motion

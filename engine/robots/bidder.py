@@ -16,11 +16,11 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import simpy
 
-from engine.bidding import BidMemory, Bids, refused_all
+from engine.bidding import BidMemory, Bids, OpenAuction, refused_all
 from engine.geometry import Point, path_length
 from engine.messages import Ack, Award, Bid, Heartbeat, TaskType
 from engine.planning import PlanningError
-from engine.policies import OpenAuction, PendingAward, Policy
+from engine.policies import PendingAward, Policy
 
 if TYPE_CHECKING:
     from engine.context import MissionContext

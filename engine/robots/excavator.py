@@ -7,17 +7,17 @@ from typing import TYPE_CHECKING, Any, cast
 import simpy
 
 from engine.auction_rules import Allocation
+from engine.bidding import OpenAuction
 from engine.field import NEAR
 from engine.geometry import Point, dist
-from engine.policies import OpenAuction
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
+from engine.robots.rendezvous import Taker
 from engine.robots.transport import Transports
 
 if TYPE_CHECKING:
     from engine.field import SiteState
-    from engine.robots.hauler import Hauler
 
 
 def transports_due(
@@ -49,10 +49,10 @@ class Excavator(Robot):
         self.minerals_dug = 0
         self.waiting_for: str | None = None  # transport task id of the mineral in my bucket
         self._arrival: simpy.Event | None = None
-        self.partner_here: Hauler | None = None
+        self.partner_here: Taker | None = None
         # transports auctioned ahead of their minerals (a lead policy), next mineral first
         self.ahead: list[str] = []
-        self.early: dict[str, Hauler] = {}  # haulers that came for one of them and stand by
+        self.early: dict[str, Taker] = {}  # haulers that came for one of them and stand by
         self.transfer_now_s = self.ctx.scenario.timing.transfer_s  # the transfer under way
         self.transports = Transports(self)
 
@@ -198,12 +198,12 @@ class Excavator(Robot):
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             self._arrival = None
             if arrival.triggered:
-                hauler = cast("Hauler", arrival.value)
+                hauler = cast("Taker", arrival.value)
                 self.house.cancel_task(task_id)
                 yield from self.transfer(hauler, site)
         self.waiting_for = None
 
-    def transfer(self, hauler: Hauler, site: SiteState) -> Any:
+    def transfer(self, hauler: Taker, site: SiteState) -> Any:
         self.state = "loading"
         self.transfer_now_s = self.mobility.work_s(self.ctx.scenario.timing.transfer_s)
         hauler.loading_from = self
@@ -255,7 +255,7 @@ class Excavator(Robot):
         return t, pos
 
     # --- physical rendezvous with haulers (they stand beside me) --------------------------
-    def hauler_arrived(self, hauler: Hauler, task_id: str) -> bool:
+    def hauler_arrived(self, hauler: Taker, task_id: str) -> bool:
         arrival = self._arrival
         ready = self.alive and self.bucket and self.waiting_for == task_id
         if ready and arrival is not None and not arrival.triggered:
@@ -272,14 +272,14 @@ class Excavator(Robot):
         """Is this transport for the mineral in my bucket, or one I am about to dig?"""
         return task_id == self.waiting_for or task_id in self.ahead
 
-    def partner_arrived(self, hauler: Hauler) -> None:
+    def partner_arrived(self, hauler: Taker) -> None:
         self.partner_here = hauler
         waiting_for = self.waiting_for
         rec_open = waiting_for is not None and self.house.is_open(waiting_for)
         if self._arrival is not None and not self._arrival.triggered and rec_open:
             self._arrival.succeed(hauler)
 
-    def partner_left(self, hauler: Hauler) -> None:
+    def partner_left(self, hauler: Taker) -> None:
         if self.partner_here is hauler:
             self.partner_here = None
 

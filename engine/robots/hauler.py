@@ -2,20 +2,19 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import simpy
 
+from engine.bidding import OpenAuction
 from engine.field import NEAR
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
-from engine.policies import OpenAuction, coalition_partner
+from engine.policies import coalition_partner
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
-
-if TYPE_CHECKING:
-    from engine.robots.excavator import Excavator
+from engine.robots.rendezvous import Giver
 
 SENSE = 2.0
 """How far a hauler sees a mineral lying on the ground while it drives."""
@@ -33,7 +32,7 @@ class Hauler(Robot):
         self._loaded: simpy.Event | None = None
         self.partner_site: Point | None = None
         self._partner_done: set[str] = set()  # sites my partner finished or left
-        self.loading_from: Excavator | None = None  # a bucket is being emptied into my bin
+        self.loading_from: Giver | None = None  # a bucket is being emptied into my bin
 
     def load(self) -> int:
         return self.bin
@@ -92,7 +91,7 @@ class Hauler(Robot):
             yield self.wait_for_wake() | self.env.timeout(min(left, cfg.protocol.heartbeat_s))
         return None
 
-    def wait_loaded(self, exc: Excavator, task_id: str) -> Any:
+    def wait_loaded(self, exc: Giver, task_id: str) -> Any:
         """Stand by the excavator until it has emptied its bucket into my bin (longer if I came
         early for a mineral it is still digging, as long as it still expects me)."""
         self.state = "waiting"
@@ -103,7 +102,7 @@ class Hauler(Robot):
             yield loaded | self.env.timeout(limit)
         self._loaded = None
 
-    def can_receive(self, exc: Excavator) -> bool:
+    def can_receive(self, exc: Giver) -> bool:
         """Alive, still waiting to be loaded beside the excavator, with an empty bin: a mineral
         can move over (a hauler that failed and came back mid-transfer is not waiting)."""
         return (
@@ -113,7 +112,7 @@ class Hauler(Robot):
             and dist(self.pos, exc.pos) <= NEAR
         )
 
-    def receive(self, exc: Excavator, task_id: str) -> None:
+    def receive(self, exc: Giver, task_id: str) -> None:
         """The excavator empties its bucket into my bin; a coalition hand-over is my task now."""
         self.bin = 1
         if self.current is None:
@@ -167,7 +166,7 @@ class Hauler(Robot):
         self.bin = 0
         self.ctx.field.note_delivery(self.name)
 
-    def _excavator_here(self, pred: Any) -> Excavator | None:
+    def _excavator_here(self, pred: Any) -> Giver | None:
         for r in self.ctx.robots.values():
             if r.rtype == "excavator" and r.alive and dist(r.pos, self.pos) <= NEAR and pred(r):
                 return r  # type: ignore[return-value]
@@ -261,7 +260,7 @@ class Hauler(Robot):
                 return False  # an unpaired hauler is alive: it can carry
         return True
 
-    def ready_for(self, exc: Excavator) -> bool:
+    def ready_for(self, exc: Giver) -> bool:
         """Standing by this excavator with an empty bin, waiting for its bucket?"""
         return (
             self.alive
@@ -271,7 +270,7 @@ class Hauler(Robot):
             and dist(self.pos, exc.pos) <= NEAR
         )
 
-    def standing_by(self, exc: Excavator) -> bool:
+    def standing_by(self, exc: Giver) -> bool:
         """Came early for a transport and waits beside this excavator for its bucket?"""
         return (
             self.alive

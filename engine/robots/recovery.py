@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 import simpy
 
 from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
+from engine.bidding import OpenAuction
 from engine.messages import Heartbeat, Hello, Holding, Leaving, Probe, Revoke, Takeover, TaskDone
-from engine.policies import OpenAuction
 
 if TYPE_CHECKING:
     from engine.auction_house import AuctionHouse

@@ -4,11 +4,11 @@ import math
 from dataclasses import dataclass
 
 from engine.auction_rules import rank_bids, select_winner
+from engine.bidding import OpenAuction
 from engine.policies import (
     AnticipatoryCoalitions,
     FirstComeFirstServed,
     NearestFirst,
-    OpenAuction,
     PendingAward,
     RelaxedCoalitions,
     coalition_partner,

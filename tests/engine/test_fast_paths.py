@@ -30,10 +30,11 @@ from hypothesis import strategies as st
 
 import engine.robots.bidder
 from engine import POLICIES, Mission
+from engine.bidding import OpenAuction
 from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
 from engine.liveness import Liveness
-from engine.policies import FirstComeFirstServed, OpenAuction
+from engine.policies import FirstComeFirstServed
 from engine.robots.bidder import Bidder
 from engine.scenario import Crater
 from engine.world import CLEARANCE, CraterIndex
