@@ -3,15 +3,17 @@
 `AuctionHouse` is the auctioneer role any robot (or the operator) plays: it announces,
 collects bids for the bid window, awards the best finite bid, moves to the next bidder on a
 decline or a silent winner, re-announces after the retry interval when nobody can take the
-task, and after the close monitors the winner until it reports the task done — re-auctioning
-it if the winner falls silent. The records it keeps and the decisions it applies are the pure
-`engine.auction_rules`.
+task, and after the close watches the winner until it reports the task done — re-auctioning
+it if the winner fails, releases it or drops it. It owns its open auctions and its watches
+(the allocations); its robot asks it through methods (`is_open`, `watching`, `watch`,
+`check_winners`, `winner_down`, `task_done`, `holder_says`, …) and tells it what it hears.
+The records it keeps and the decisions it applies are the pure `engine.auction_rules`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence, Set
+from collections.abc import Callable, Iterator, Mapping, Sequence, Set
 from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import simpy
@@ -24,19 +26,44 @@ from engine.auction_rules import (
     Duties,
     rank_bids,
 )
-from engine.messages import Ack, Announce, Award, Bid, Close, Location, Message, TaskType
+from engine.messages import (
+    Ack,
+    Announce,
+    Award,
+    Bid,
+    Close,
+    Heartbeat,
+    Location,
+    Message,
+    Revoke,
+    TaskDone,
+    TaskType,
+)
 
 if TYPE_CHECKING:
     from engine.scenario import Protocol as ProtocolSettings
 
 
+class HeartbeatBoard(Protocol):
+    """What the house reads of the liveness board to watch its winners."""
+
+    def last_heartbeat(self, receiver: str, sender: str) -> Heartbeat | None: ...
+    def last_heartbeat_about(
+        self, receiver: str, sender: str, task_id: str
+    ) -> Heartbeat | None: ...
+
+
 class AuctionPorts(Protocol):
     """What an auctioneer needs of the mission, and nothing more: the clock, the protocol's
-    timing, the bus, the observer's records, the policy's choice among bidders tied exactly at
-    the top and, for the centralized baseline only, an oracle's award order (None: the
-    auctioneer ranks the bids)."""
+    timing, the bus, the observer's records, the heartbeats it hears (to watch winners), the
+    road to the plant (where a lost mineral is searched for), the policy's choice among
+    bidders tied exactly at the top and, for the centralized baseline only, an oracle's award
+    order (None: the auctioneer ranks the bids)."""
 
     env: simpy.Environment
+
+    @property
+    def liveness(self) -> HeartbeatBoard: ...
 
     @property
     def protocol(self) -> ProtocolSettings: ...
@@ -58,6 +85,7 @@ class AuctionPorts(Protocol):
         self, rec: AuctionRecord, bids: Mapping[str, float], excluded: Set[str]
     ) -> list[str] | None: ...
     def break_tie(self, rec: AuctionRecord, tied: Sequence[str]) -> str: ...
+    def road_to_plant(self, start: Location) -> tuple[Location, ...]: ...
 
 
 class _Live:
@@ -75,17 +103,58 @@ class _Live:
 
 
 class AuctionHouse:
-    """The auctioneer role of one robot (or of the operator)."""
+    """The auctioneer role of one robot (or of the operator): its open auctions, and the
+    tasks it allocated and watches until their winners report them done.
+
+    `kind` is the kind of auction it re-opens for a task whose winner was lost;
+    `peer_offers(task_id)` says whether a live peer already offers or watches that task (then
+    it is not offered again); `holders_carry`: a task's place moves with its holder (a
+    carried mineral, not a site), so a lost one is searched for where the holder was last
+    heard."""
 
     def __init__(
-        self, owner: str, ports: AuctionPorts, on_allocated: Callable[[Allocation], None]
+        self,
+        owner: str,
+        ports: AuctionPorts,
+        *,
+        kind: str = "operator",
+        peer_offers: Callable[[str], bool] = lambda task_id: False,
+        holders_carry: bool = True,
     ) -> None:
         self.owner = owner
         self.ports = ports
-        self._on_allocated = on_allocated
-        self.open_auctions: dict[str, AuctionRecord] = {}
+        self.kind = kind
+        self._peer_offers = peer_offers
+        self._holders_carry = holders_carry
+        self._open: dict[str, AuctionRecord] = {}
         self._live: dict[str, _Live] = {}
-        self.allocations: dict[str, Allocation] = {}
+        self._watches: dict[str, Allocation] = {}
+
+    # --- what it holds, asked ------------------------------------------------------------
+    def open_ids(self) -> tuple[str, ...]:
+        """The ids of its open auctions, in opening order (a heartbeat lists them)."""
+        return tuple(self._open)
+
+    def open_records(self) -> list[AuctionRecord]:
+        return list(self._open.values())
+
+    def has_open(self, auction_id: str) -> bool:
+        return auction_id in self._open
+
+    def is_open(self, task_id: str) -> bool:
+        """Is an auction for this task open here?"""
+        return any(r.task_id == task_id for r in self._open.values())
+
+    def watching(self, task_id: str) -> bool:
+        """Was this task allocated here, its winner not yet done with it?"""
+        return task_id in self._watches
+
+    def watches(self) -> Iterator[Allocation]:
+        return iter(list(self._watches.values()))
+
+    def watch(self, alloc: Allocation) -> None:
+        """Watch a task allocated outside an auction (a hand-over, an adopted watch)."""
+        self._watches[alloc.task_id] = alloc
 
     # --- opening and running -------------------------------------------------------------
     def open(
@@ -98,13 +167,13 @@ class AuctionHouse:
         search_path: tuple[Location, ...] = (),
         reauction_of: str | None = None,
     ) -> AuctionRecord:
-        for running in self.open_auctions.values():
+        for running in self._open.values():
             if running.task_id == task_id:
                 return running  # one auction per task and auctioneer (adoption meets resumption)
         rec = self.ports.new_auction(
             self.owner, kind, task_type, location, task_id, search_path, reauction_of
         )
-        self.open_auctions[rec.id] = rec
+        self._open[rec.id] = rec
         live = _Live()
         self._live[rec.id] = live
         live.process = self.ports.env.process(self._run(rec, live))
@@ -202,17 +271,16 @@ class AuctionHouse:
 
     def _close(self, rec: AuctionRecord, winner: str) -> None:
         self._publish_close(rec, winner, "closed")
-        self.open_auctions.pop(rec.id, None)
+        self._open.pop(rec.id, None)
         self._live.pop(rec.id, None)
         alloc = Allocation(
             rec.id, rec.task_id, rec.task_type, rec.location, winner, self.ports.env.now
         )
         alloc.search_path = rec.search_path
-        self.allocations[rec.task_id] = alloc
-        self._on_allocated(alloc)
+        self._watches[rec.task_id] = alloc
 
     def cancel(self, auction_id: str) -> None:
-        rec = self.open_auctions.pop(auction_id, None)
+        rec = self._open.pop(auction_id, None)
         live = self._live.pop(auction_id, None)
         if rec is None:
             return
@@ -220,9 +288,112 @@ class AuctionHouse:
             live.process.interrupt("cancelled")
         self._publish_close(rec, None, "cancelled")
 
+    def cancel_task(self, task_id: str) -> None:
+        """Withdraw the auction for this task, if one is open here."""
+        for rec in list(self._open.values()):
+            if rec.task_id == task_id:
+                self.cancel(rec.id)
+
+    def yield_duplicate(self, auction_id: str, task_id: str, other: str) -> None:
+        """`other` announced an auction of its own for a task this house auctions too: the
+        smaller name keeps it."""
+        for rec in list(self._open.values()):
+            if rec.task_id == task_id and rec.id != auction_id and other < self.owner:
+                self.cancel(rec.id)
+
+    def drop_adopted(self, auction_ids: list[str]) -> None:
+        """A peer with a smaller name adopted the same failed robot: its auctions and watches
+        that this house took up for it are let go."""
+        for aid in auction_ids:
+            self.cancel(aid)
+        for tid, alloc in list(self._watches.items()):
+            if alloc.auction_id in auction_ids:
+                del self._watches[tid]
+
+    # --- watching winners ----------------------------------------------------------------
+    def check_winners(self, grace: float) -> None:
+        """A winner that neither lists a task in its heartbeat nor reports it done has dropped
+        it: offered again. One that reports it done ends the watch (its TaskDone was lost)."""
+        board = self.ports.liveness
+        for tid, alloc in list(self._watches.items()):
+            hb = board.last_heartbeat(self.owner, alloc.winner)
+            if hb is None or hb.t < alloc.since + grace:
+                continue
+            if tid in hb.done:
+                del self._watches[tid]
+            elif tid not in hb.tasks:
+                del self._watches[tid]
+                self.reoffer(alloc, hb)
+
+    def winner_down(self, peer: str) -> None:
+        """`peer` failed or left: every task it won here is offered again."""
+        board = self.ports.liveness
+        for tid, alloc in list(self._watches.items()):
+            if alloc.winner == peer:
+                del self._watches[tid]
+                self.reoffer(alloc, board.last_heartbeat(self.owner, peer))
+
+    def task_done(self, msg: TaskDone) -> None:
+        """A TaskDone: only the robot a task was allocated to ends its watch (a duplicate
+        holder's "void" must not end the real holder's); a released task is offered again; a
+        task done needs no auction any more."""
+        alloc = self._watches.get(msg.task_id)
+        if alloc is not None and alloc.winner == msg.sender:
+            del self._watches[msg.task_id]
+        else:
+            alloc = None
+        if alloc is not None and msg.outcome == "released":
+            self.reoffer(alloc, None)
+        elif msg.outcome == "done":
+            self.cancel_task(msg.task_id)
+
+    def holder_says(self, task_id: str, holder: str) -> None:
+        """A robot it re-auctioned a task from is alive and still on it (Holding): it keeps
+        the task; a second holder the house allocated it to meanwhile is revoked."""
+        for rec in list(self._open.values()):
+            if rec.task_id == task_id:
+                self.cancel(rec.id)
+                self._watches[task_id] = Allocation(
+                    rec.id, rec.task_id, rec.task_type, rec.location, holder, self.ports.env.now
+                )
+                return
+        alloc = self._watches.get(task_id)
+        if alloc is not None and alloc.winner != holder:
+            self.ports.publish(Revoke(sender=self.owner, task_id=task_id, robot=alloc.winner))
+            self.ports.emit("task_revoked", by=self.owner, robot=alloc.winner, task_id=task_id)
+            alloc.winner = holder
+
+    def reoffer(self, alloc: Allocation, hb: Heartbeat | None) -> None:
+        """Offer a task again whose holder failed, released it or dropped it (unless a live
+        peer already offers or watches it: two watchers back from failures, say). `hb`: what
+        the holder said last, if it may tell where a carried mineral went."""
+        if self._peer_offers(alloc.task_id):
+            return
+        if not self._holders_carry:
+            hb = None  # a site does not move with its excavator
+        location, search = alloc.location, alloc.search_path
+        if hb is not None and alloc.task_id not in hb.tasks:
+            # back from a failure without it, say: what it last said while it held the task
+            hb = self.ports.liveness.last_heartbeat_about(self.owner, alloc.winner, alloc.task_id)
+        if hb is not None and hb.load > 0 and hb.tasks[:1] == (alloc.task_id,):
+            # it was carrying the mineral: search along its route from where it was last heard
+            location, search = (hb.x, hb.y), hb.path
+        elif alloc.task_type == "transport" and not search:
+            # the mineral may have left the bucket before the hauler fell silent: look at the
+            # pick-up point first, then along the road from there to the plant
+            search = self.ports.road_to_plant(location)
+        self.open(
+            alloc.task_type,
+            location,
+            alloc.task_id,
+            kind=self.kind,
+            search_path=search,
+            reauction_of=alloc.auction_id,
+        )
+
     # --- incoming messages ---------------------------------------------------------------
     def on_bid(self, msg: Bid) -> None:
-        rec = self.open_auctions.get(msg.auction_id)
+        rec = self._open.get(msg.auction_id)
         live = self._live.get(msg.auction_id)
         if rec is None or live is None or msg.round != rec.round:
             return
@@ -243,7 +414,7 @@ class AuctionHouse:
 
     def reannounce_open(self) -> None:
         """Tell a newcomer about every auction still open (answers Hello)."""
-        for rec in self.open_auctions.values():
+        for rec in self._open.values():
             self._announce(rec)
 
     def stop(self) -> Duties:
@@ -252,16 +423,16 @@ class AuctionHouse:
         for live in self._live.values():
             if live.process is not None and live.process.is_alive:
                 live.process.interrupt("auctioneer down")
-        duties = Duties(list(self.open_auctions.values()), dict(self.allocations))
+        duties = Duties(list(self._open.values()), dict(self._watches))
         self._live.clear()
-        self.open_auctions.clear()
-        self.allocations.clear()
+        self._open.clear()
+        self._watches.clear()
         return duties
 
     def resume(self, duties: Duties) -> None:
         """Take up an earlier life's duties: its auctions again (as re-auctions), its watches."""
         for rec in duties.auctions:
-            if rec.task_id not in self.allocations:
+            if rec.task_id not in self._watches:
                 self.open(
                     rec.task_type,
                     rec.location,
@@ -271,8 +442,6 @@ class AuctionHouse:
                     reauction_of=rec.id,
                 )
         for tid, alloc in duties.watches.items():
-            if tid not in self.allocations and not any(
-                r.task_id == tid for r in self.open_auctions.values()
-            ):
+            if tid not in self._watches and not self.is_open(tid):
                 alloc.since = float(self.ports.env.now)
-                self.allocations[tid] = alloc
+                self._watches[tid] = alloc

@@ -9,15 +9,32 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
-if TYPE_CHECKING:
-    from engine.policies import OpenAuction
+from engine.messages import Location, TaskType
 
 REBID_S = 2.0
 """A time-bidding robot re-sends a bid when its estimate moved by more than this (seconds)."""
 
-Bids = list[tuple["OpenAuction", int, float]]
+
+@dataclass(frozen=True, slots=True)
+class OpenAuction:
+    """What a bidder knows of an auction, from its announcement."""
+
+    auction_id: str
+    auctioneer: str
+    task_type: TaskType
+    location: Location
+    task_id: str
+    opened_at: float
+    search_path: tuple[Location, ...] = ()
+
+    @property
+    def order(self) -> tuple[float, str]:
+        return (self.opened_at, self.auction_id)
+
+
+Bids = list[tuple[OpenAuction, int, float]]
 """Bids to send: the auction, the round it is for, the utility (-inf: capable but busy)."""
 
 

@@ -92,7 +92,10 @@ def assign_greedily(
     robots = [
         r
         for name, r in sorted(ctx.robots.items())
-        if r.capability == rec.task_type and r.can_take() and name not in promised
+        if r.capability == rec.task_type
+        and r.bidder is not None
+        and r.bidder.can_take()
+        and name not in promised
     ]
     if not robots:
         return []
@@ -109,7 +112,7 @@ def assign_greedily(
 def travel_s(ctx: GlobalView, robot: Robot, goal: tuple[float, float]) -> float:
     """Time to drive from the robot's true position to the goal along the planned path."""
     try:
-        length = path_length(ctx.planner.plan(robot.position()[0], goal))
+        length = path_length(ctx.planner.plan(robot.mobility.position()[0], goal))
     except PlanningError:
         return FORBIDDEN
     return length / robot.speed if math.isfinite(length) else FORBIDDEN

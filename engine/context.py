@@ -19,7 +19,7 @@ from engine.field import Field
 from engine.liveness import Liveness
 from engine.messages import Location, Message, TaskType
 from engine.observer import Observer
-from engine.planning import PathPlanner
+from engine.planning import PathPlanner, PlanningError
 from engine.scenario import Protocol as ProtocolSettings
 from engine.scenario import Scenario
 from engine.world import World
@@ -108,6 +108,13 @@ class MissionContext:
 
     def break_tie(self, rec: AuctionRecord, tied: Sequence[str]) -> str:
         return self.policy.break_tie(rec, tied)
+
+    def road_to_plant(self, start: Location) -> tuple[Location, ...]:
+        """The planned road from here to the plant (empty if there is none)."""
+        try:
+            return self.planner.plan(start, self.world.plant)
+        except PlanningError:
+            return ()
 
     # --- across the field and the robots ---------------------------------------------------
     def minerals_in(self) -> dict[str, int]:

@@ -17,7 +17,8 @@ battery and the map, not the future.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Sized
+from typing import TYPE_CHECKING, Protocol
 
 from engine.geometry import Point, dist
 from engine.realism import Battery as BatterySpec
@@ -26,11 +27,45 @@ from engine.realism import Energy
 if TYPE_CHECKING:
     import simpy
 
-    from engine.robots.core import RobotCore
     from engine.scenario import Scenario
     from engine.world import World
 
 WORK_STATES = frozenset({"digging", "loading", "unloading", "scanning"})
+
+
+class _Moving(Protocol):
+    @property
+    def speed(self) -> float: ...
+
+
+class Located(Protocol):
+    def position(self, t: float | None = None) -> tuple[Point, float]: ...
+
+
+class Powered(Protocol):
+    """What the energy model reads of a robot (`engine.robots.base.Robot`)."""
+
+    rtype: str
+    battery: Battery | None
+    alive: bool
+    _state_since: float
+
+    @property
+    def queue(self) -> Sized: ...
+
+    @property
+    def state(self) -> str: ...
+    @property
+    def motion(self) -> _Moving | None: ...
+    @property
+    def current(self) -> object | None: ...
+    @property
+    def pos(self) -> Point: ...
+    @property
+    def speed(self) -> float: ...
+    @property
+    def mobility(self) -> Located: ...
+    def run_dry(self) -> None: ...
 
 
 class Battery:
@@ -89,7 +124,7 @@ class EnergyModel:
         return Battery(spec, float(self.env.now)) if isinstance(spec, BatterySpec) else None
 
     # --- the level over time -------------------------------------------------------------
-    def update(self, robot: RobotCore) -> None:
+    def update(self, robot: Powered) -> None:
         """The robot's state or motion changed: settle its battery, set the new rate, and
         watch for the moment it would run dry."""
         bat = robot.battery
@@ -112,7 +147,7 @@ class EnergyModel:
             ev = self.env.timeout(bat.level / rate)
             ev.callbacks.append(lambda _e: self._dry(robot, token))
 
-    def _dry(self, robot: RobotCore, token: int) -> None:
+    def _dry(self, robot: Powered, token: int) -> None:
         bat = robot.battery
         if bat is None or bat._watch != token or not robot.alive:
             return
@@ -151,7 +186,7 @@ class EnergyModel:
         """What the battery holds now beyond the reserve."""
         return bat.level_at(float(self.env.now)) - self.cfg.reserve * bat.capacity
 
-    def feasible(self, robot: RobotCore, task_type: str, where: Point) -> bool:
+    def feasible(self, robot: Powered, task_type: str, where: Point) -> bool:
         """Can the robot take this task (from where it is, or, if it already holds tasks,
         from a charger with a full battery: it charges before starting it if it must)?"""
         bat = robot.battery
@@ -160,15 +195,15 @@ class EnergyModel:
             start = self.nearest_charger(where)
             full = bat.capacity * (1.0 - self.cfg.reserve)
             return self.task_kj(bat.spec, task_type, start, where) <= full
-        here = robot.position()[0]
+        here = robot.mobility.position()[0]
         return self.task_kj(bat.spec, task_type, here, where) <= self.spare(bat)
 
-    def can_start(self, robot: RobotCore, task_type: str, where: Point) -> bool:
+    def can_start(self, robot: Powered, task_type: str, where: Point) -> bool:
         bat = robot.battery
         assert bat is not None
         return self.task_kj(bat.spec, task_type, robot.pos, where) <= self.spare(bat)
 
-    def can_dig_one_more(self, robot: RobotCore, site: Point) -> bool:
+    def can_dig_one_more(self, robot: Powered, site: Point) -> bool:
         bat = robot.battery
         assert bat is not None
         spec = bat.spec
@@ -177,7 +212,7 @@ class EnergyModel:
         )
         return need <= self.spare(bat)
 
-    def can_drive(self, robot: RobotCore, length: float, goal: Point, per_s: float = 0.0) -> bool:
+    def can_drive(self, robot: Powered, length: float, goal: Point, per_s: float = 0.0) -> bool:
         """Enough to drive `length` metres (drawing `per_s` kW more while at it) and then
         reach the nearest charger from the goal?"""
         bat = robot.battery
@@ -192,7 +227,7 @@ class EnergyModel:
         """Seconds at a charger to fill the battery from its level now."""
         return max(0.0, bat.capacity - bat.level_at(float(self.env.now))) / self.cfg.charge_kw
 
-    def metrics(self, robots: list[RobotCore]) -> dict[str, object]:
+    def metrics(self, robots: list[Powered]) -> dict[str, object]:
         now = float(self.env.now)
         used: dict[str, float] = {}
         charging: dict[str, float] = {}

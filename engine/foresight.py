@@ -25,14 +25,14 @@ def predict_found(ctx: GlobalView) -> dict[str, float]:
     wps = ctx.world.grid.waypoints
     out: dict[str, float] = {}
     for scout in sorted(ctx.robots.values(), key=lambda r: r.name):
-        if scout.rtype != "scout" or not scout.participating:
+        search = scout.search
+        if search is None or not scout.participating:
             continue
-        route: list[int] = getattr(scout, "route", [])
-        cursor: int = getattr(scout, "cursor", 0)
-        here = scout.position()[0]
+        route, cursor = search.route, search.cursor
+        here = scout.mobility.position()[0]
         points: list[Point] = [here]
         if scout.motion is not None:
-            points += scout.remaining_route()[1:]
+            points += scout.mobility.remaining_route()[1:]
             cursor += 1
         points += [p for c in route[cursor:] if (p := wps[c]) is not None]
         t = now

@@ -141,7 +141,13 @@ class OfflineAllocator:
                 continue
             if gated:
                 continue
-            if robot.can_take() and name not in excluded and name not in promised:
+            bidder = robot.bidder
+            if (
+                bidder is not None
+                and bidder.can_take()
+                and name not in excluded
+                and name not in promised
+            ):
                 ready.append((nxt.k, nxt.at, name, nxt))
         if ready:
             _, _, name, entry = min(ready)
@@ -246,8 +252,9 @@ def build_problem(ctx: GlobalView) -> Problem:
     for r in ctx.robots.values():
         if r.rtype == "excavator" and r.alive:
             held += [a.location for a in r.tasks_held()]
-            if r.reserved is not None:
-                held.append(r.reserved.location)
+            reserved = None if r.bidder is None else r.bidder.reserved
+            if reserved is not None:
+                held.append(reserved.location)
     jobs = []
     for s in ctx.field.sites:
         if s.remaining <= 0 or (s.worker is not None and ctx.robots[s.worker].alive):
@@ -258,7 +265,8 @@ def build_problem(ctx: GlobalView) -> Problem:
         jobs.append(Job(s.id, (s.x, s.y), s.remaining, max(now, seen) + cfg.protocol.bid_window_s))
 
     def unit(r: Robot) -> Unit:
-        wait, pos = r.free_at()
+        assert r.bidder is not None
+        wait, pos = r.bidder.free_at()
         return Unit(r.name, pos, now + wait)
 
     team = sorted((r for r in ctx.robots.values() if r.participating), key=lambda r: r.name)
@@ -302,7 +310,8 @@ def _pickup_pending(ctx: GlobalView, rec: AuctionRecord) -> bool:
     for r in ctx.robots.values():
         if r.rtype != "hauler" or not r.alive:
             continue
-        if r.reserved is not None and _at(r.reserved.task_type, r.reserved.location, here):
+        reserved = None if r.bidder is None else r.bidder.reserved
+        if reserved is not None and _at(reserved.task_type, reserved.location, here):
             return True
         for t in r.tasks_held():
             if _at(t.task_type, t.location, here) and not (t is r.current and r.load()):

@@ -3,12 +3,18 @@ wait in a first-come-first-served queue beside the plant."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import simpy
 
-if TYPE_CHECKING:
-    from engine.robots.hauler import Hauler
+
+class Unloader(Protocol):
+    """What the docks see of a hauler: its state (queued, unloading)."""
+
+    @property
+    def state(self) -> str: ...
+    @state.setter
+    def state(self, value: str) -> None: ...
 
 
 class Plant:
@@ -24,7 +30,7 @@ class Plant:
         ahead = len(self._res.queue) + len(self._res.users) - self.docks + 1
         return max(0, ahead) * unload_s / self.docks
 
-    def unload(self, hauler: Hauler, unload_s: float) -> Any:
+    def unload(self, hauler: Unloader, unload_s: float) -> Any:
         """Take a dock (waiting for one if all are busy), unload, free the dock. A hauler that
         fails while it waits leaves the queue (its request is cancelled)."""
         t0 = float(self.env.now)

@@ -15,7 +15,8 @@ peer would be out of reach, it is presumed out of range, not failed, and gets
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Set
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -27,7 +28,6 @@ from engine.realism import Radio
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
-    from engine.robots.core import RobotCore
 
 BASE = "operator"
 """The base station's node: the operator's console stands at the plant."""
@@ -43,6 +43,21 @@ def hop_reach(link: np.ndarray, hops: int) -> np.ndarray:
             break
         reach = grown
     return reach
+
+
+class Located(Protocol):
+    def position(self, t: float | None = None) -> tuple[Point, float]: ...
+
+
+class Believer(Protocol):
+    """What the radio reads of a robot to judge a silent peer (`engine.robots.base.Robot`)."""
+
+    name: str
+
+    @property
+    def down(self) -> Set[str]: ...
+    @property
+    def mobility(self) -> Located: ...
 
 
 class RadioNet:
@@ -68,7 +83,7 @@ class RadioNet:
         out = [(BASE, plant, base)]
         for r in self.ctx.robots.values():
             if r.alive and r.name != BASE:
-                out.append((r.name, r.position()[0], self.cfg.range_m))
+                out.append((r.name, r.mobility.position()[0], self.cfg.range_m))
         return out
 
     def _refresh(self) -> None:
@@ -127,7 +142,7 @@ class RadioNet:
         return plant
 
     # --- what a robot believes ---------------------------------------------------------
-    def presumed_out_of_reach(self, robot: RobotCore, peer: str, now: float) -> bool:
+    def presumed_out_of_reach(self, robot: Believer, peer: str, now: float) -> bool:
         """Silent `peer`: by the positions this robot last heard of (its peers' heartbeats),
         would it be out of reach? Then it is presumed out of range, until silent_timeout_s."""
         board = self.ctx.liveness
@@ -144,7 +159,7 @@ class RadioNet:
         if hb is None:
             return False
         speeds = self.ctx.scenario.speeds
-        nodes = [(robot.name, robot.position()[0], self.cfg.range_m)]
+        nodes = [(robot.name, robot.mobility.position()[0], self.cfg.range_m)]
         nodes.append((BASE, self.ctx.world.plant, self.cfg.base_range_m or self.cfg.range_m))
         slack = [0.0, 0.0]
         for name in board.names:

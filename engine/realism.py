@@ -8,12 +8,9 @@ Only the settings live here (validated, each field named in an error); the behav
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
-
-if TYPE_CHECKING:
-    from engine.scenario import Scenario
 
 Coord = Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)]
@@ -88,18 +85,3 @@ class Radio(_Model):
     """How long a peer that fell silent out of radio reach (by its last known position) gets
     before it is taken for failed; one silent within reach gets the protocol's
     failure_timeout_s."""
-
-
-def one_task_kj(s: Scenario, rtype: str, far: float) -> float:
-    """The most one task can cost a robot of this type, as it estimates it: from the plant to
-    a point `far` away, the task's work, and back (scouts: a scan leg there and back)."""
-    e = s.energy
-    b: Battery = getattr(e, rtype)
-    margin = 1.0 + 2.0 * s.uncertainty.work_cv if s.uncertainty.enabled else 1.0
-    drive = 2 * far * e.detour * b.drive_kj_per_m
-    t = s.timing
-    if rtype == "scout":
-        speed: float = getattr(s.speeds, rtype)
-        return drive + far * e.detour * b.work_kw / speed
-    work_s = t.transfer_s + t.unload_s if rtype == "hauler" else t.dig_s + t.transfer_s
-    return drive + b.work_kw * work_s * margin

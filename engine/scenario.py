@@ -23,7 +23,7 @@ from pydantic import (
     model_validator,
 )
 
-from engine.realism import Docks, Energy, Radio, Uncertainty, one_task_kj
+from engine.realism import Battery, Docks, Energy, Radio, Uncertainty
 
 Coord = Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)]
 """A position: far beyond any area (5 km sides) but bounded, so bucket arithmetic stays exact."""
@@ -308,3 +308,18 @@ def load_scenario(path: str | Path) -> Scenario:
 
 RobotType = Literal["scout", "excavator", "hauler"]
 ROBOT_TYPES: tuple[RobotType, ...] = ("scout", "excavator", "hauler")
+
+
+def one_task_kj(s: Scenario, rtype: str, far: float) -> float:
+    """The most one task can cost a robot of this type, as it estimates it: from the plant to
+    a point `far` away, the task's work, and back (scouts: a scan leg there and back)."""
+    e = s.energy
+    b: Battery = getattr(e, rtype)
+    margin = 1.0 + 2.0 * s.uncertainty.work_cv if s.uncertainty.enabled else 1.0
+    drive = 2 * far * e.detour * b.drive_kj_per_m
+    t = s.timing
+    if rtype == "scout":
+        speed: float = getattr(s.speeds, rtype)
+        return drive + far * e.detour * b.work_kw / speed
+    work_s = t.transfer_s + t.unload_s if rtype == "hauler" else t.dig_s + t.transfer_s
+    return drive + b.work_kw * work_s * margin

@@ -34,7 +34,7 @@ class MissionViews:
         return self.world.to_dict()
 
     def _robot_dict(self, r: Robot, full: bool) -> dict[str, Any]:
-        (x, y), heading = r.position()
+        (x, y), heading = r.mobility.position()
         d: dict[str, Any] = {
             "name": r.name,
             "type": r.rtype,
@@ -55,7 +55,7 @@ class MissionViews:
                 else f"{cur.task_type}@({cur.location[0]:.1f},{cur.location[1]:.1f})"
             )
             d["distance"] = r.distance
-            d["path"] = [[p[0], p[1]] for p in r.remaining_route()]
+            d["path"] = [[p[0], p[1]] for p in r.mobility.remaining_route()]
             d["enabled"] = r.enabled and not r.leaving
             d["partner"] = (
                 coalition_partner(r.name)

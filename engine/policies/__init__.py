@@ -12,9 +12,9 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
+from engine.bidding import OpenAuction
 from engine.policies.base import (
     POLICY_STREAM,
-    OpenAuction,
     PendingAward,
     Policy,
     PolicyContext,

@@ -1,5 +1,6 @@
 """The policy interface (`Policy`), what a policy is given (`PolicyContext`) and what a bidder
-knows of an auction (`OpenAuction`, `PendingAward`).
+holds of an award (`PendingAward`; what it knows of an auction, `OpenAuction`, is the
+bidder's, in engine/bidding.py).
 
 A policy is a strategy over a read-only view of the robot (`engine.bidding.RobotView`) and
 what the robot knows; it answers, as pure functions: which open auctions to bid in
@@ -20,30 +21,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from engine.bidding import BidMemory, Bids, RobotView, distance_bids
-from engine.messages import Location, TaskType
+from engine.bidding import BidMemory, Bids, OpenAuction, RobotView, distance_bids
+from engine.messages import Location
 
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord
     from engine.central import Allocator
     from engine.global_view import GlobalView
-
-
-@dataclass(frozen=True, slots=True)
-class OpenAuction:
-    """What a bidder knows of an auction, from its announcement."""
-
-    auction_id: str
-    auctioneer: str
-    task_type: TaskType
-    location: Location
-    task_id: str
-    opened_at: float
-    search_path: tuple[Location, ...] = ()
-
-    @property
-    def order(self) -> tuple[float, str]:
-        return (self.opened_at, self.auction_id)
 
 
 @dataclass(frozen=True, slots=True)

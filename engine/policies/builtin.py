@@ -11,9 +11,9 @@ from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 from typing import TYPE_CHECKING
 
-from engine.bidding import BidMemory, Bids, RobotView, distance_bids, time_bids
+from engine.bidding import BidMemory, Bids, OpenAuction, RobotView, distance_bids, time_bids
 from engine.messages import Location
-from engine.policies.base import OpenAuction, Policy, PolicyContext, earliest
+from engine.policies.base import Policy, PolicyContext, earliest
 from engine.policies.registry import register_policy
 
 if TYPE_CHECKING:

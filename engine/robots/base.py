@@ -1,20 +1,32 @@
-"""What every robot does: move, listen, bid, accept, keep its peers' liveness, fail and return.
+"""A robot: its parts, its state, the tasks it holds, and the life cycle of work, failure and
+return. Its behaviour (scan, dig, haul) lives in a robot type as a simpy process.
 
-A robot knows only what reached it on the bus and what it senses where it stands. Its
-behaviour (scan, dig, haul) lives in a subclass as a simpy process; the protocol roles
-(bidder here, auctioneer in `AuctionHouse`) are shared.
+A robot knows only what reached it on the bus and what it senses where it stands. It is
+composed of parts, each a small class with the interface it needs of the robot declared
+beside it:
+
+- `mobility` (`Mobility`): where it is, the path it drives; every robot;
+- `recovery` (`Recovery`): heartbeats, its peers' liveness, adoption, its return; every robot;
+- `house` (`engine.auction_house.AuctionHouse`): its auctions and the winners it watches;
+- `bidder` (`Bidder`): only a robot type that carries out auctioned tasks;
+- `charging` (`Charging`): only a robot with a battery (the energy option on; never the
+  operator's console).
+
+Messages are routed to the parts by the table at the end of this module.
 """
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from collections import deque
+from typing import TYPE_CHECKING, Any, Literal
 
 import simpy
 
 from engine.auction_house import AuctionHouse
-from engine.auction_rules import Allocation
+from engine.auction_rules import AUCTION_KINDS, Allocation
+from engine.bidding import OpenAuction
 from engine.field import NEAR
-from engine.geometry import dist
+from engine.geometry import Point, dist
 from engine.messages import (
     Ack,
     Announce,
@@ -30,32 +42,179 @@ from engine.messages import (
     Revoke,
     Takeover,
     TaskDone,
+    TaskType,
 )
 from engine.planning import PlanningError
-from engine.policies import OpenAuction
+from engine.policies import coalition_partner
 from engine.robots.charging import Charging
 from engine.robots.core import Assignment
+from engine.robots.mobility import Mobility, Motion
 from engine.robots.recovery import Recovery
 
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+    from engine.energy import Battery
+    from engine.robots.bidder import Bidder
+    from engine.robots.search import Search
 
-class Robot(Charging, Recovery):
-    """A robot: the core, the bidder, charging and recovery roles, message handling, and the
-    life cycle of work, failure and return; scouts, excavators and haulers fill in `life` or
-    `work`."""
+
+class Robot:
+    """A robot of the team (or the operator's console): its parts, its state and tasks, and
+    its life; the robot types fill in `life` or `work` and the hooks at the end."""
+
+    rtype = "robot"
+    capability: TaskType | None = None
+    hears: frozenset[str] | None = None
+    """The task types whose announcements this type acts on: those it can do, those it
+    auctions, those a hook reads (None: all). Announcements of other types from robots of
+    another type do not reach it on the ideal bus: it would only note their round."""
+
+    def __init__(self, name: str, ctx: MissionContext, pos: Point, speed: float) -> None:
+        self.name = name
+        self.ctx = ctx
+        self.env = ctx.env
+        self.battery: Battery | None = (
+            None if ctx.energy is None else ctx.energy.battery(self.rtype)
+        )
+        self.mobility = Mobility(self, pos, speed)
+        self.born_at = float(self.env.now)
+        self._state = "idle"
+        self._state_since = self.born_at
+        self.time_in_state: dict[str, float] = {}  # closed spells only; see `state_times`
+        self.alive = True
+        self.enabled = True
+        self.leaving = False
+        self.partner = coalition_partner(name)  # Policy 2's pairing rule, fixed by the name
+        self.current: Assignment | None = None
+        self.queue: deque[Assignment] = deque()
+        self._procs: list[Any] = []
+        self._wake_event: simpy.Event | None = None
+        self._wake_pending = False
+        self.life_proc: Any = None
+        self.peers = {name: self.rtype}  # name -> type, from the roster, Hello and heartbeats
+        self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
+        self.recovery = Recovery(self)
+        self.house = _house_for(self)
+        self.bidder: Bidder | None = None  # a robot type that bids sets its own
+        self.search: Search | None = None  # a scout's
+        self.charging: Charging | None = None if self.battery is None else Charging(self)
+        ctx.liveness.add(name)
+        ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears)
+
+    # --- what the parts hold, as the rest of the engine reads it ---------------------------
+    @property
+    def pos(self) -> Point:
+        return self.mobility.pos
+
+    @property
+    def motion(self) -> Motion | None:
+        return self.mobility.motion
+
+    @property
+    def speed(self) -> float:
+        return self.mobility.speed
+
+    @property
+    def distance(self) -> float:
+        return self.mobility.distance
+
+    @property
+    def down(self) -> set[str]:
+        """The peers I think failed or gone."""
+        return self.recovery.down
+
+    # --- state ----------------------------------------------------------------------------
+    @property
+    def state(self) -> str:
+        """What the robot is doing; every change is timed on the simulation clock."""
+        return self._state
+
+    @state.setter
+    def state(self, value: str) -> None:
+        if value == self._state:
+            return
+        now = float(self.env.now)
+        spent = self.time_in_state.get(self._state, 0.0)
+        self.time_in_state[self._state] = spent + (now - self._state_since)
+        self._state, self._state_since = value, now
+        self.motion_changed()
+
+    def motion_changed(self) -> None:
+        """The draw on the battery may have changed (state or motion): settle and re-watch."""
+        if self.battery is not None:
+            energy = self.ctx.energy
+            assert energy is not None
+            energy.update(self)
+
+    def state_times(self) -> dict[str, float]:
+        """Seconds spent in each state since the robot joined, the current spell up to now
+        (they add up to now − born_at)."""
+        out = dict(self.time_in_state)
+        out[self._state] = out.get(self._state, 0.0) + (float(self.env.now) - self._state_since)
+        return out
+
+    @property
+    def participating(self) -> bool:
+        return self.alive and self.enabled and not self.leaving
+
+    def wake(self) -> None:
+        """Nudge the behaviour to look at its situation again (a wake is never lost)."""
+        ev = self._wake_event
+        if ev is not None and not ev.triggered:
+            ev.succeed()
+        else:
+            self._wake_pending = True
+
+    def wait_for_wake(self) -> simpy.Event:
+        ev = self.env.event()
+        if self._wake_pending:
+            self._wake_pending = False
+            ev.succeed()
+        self._wake_event = ev
+        return ev
+
+    def spawn(self, gen: Any) -> None:
+        """Run a side process of this robot; it ends quietly when the robot fails."""
+        if len(self._procs) > 32:
+            self._procs = [p for p in self._procs if p.is_alive]
+        self._procs.append(self.env.process(_until_interrupted(gen)))
+
+    def tasks_held(self) -> list[Assignment]:
+        """The task I work on and those queued behind it."""
+        return ([] if self.current is None else [self.current]) + list(self.queue)
+
+    # --- what goes to the parts -------------------------------------------------------------
+    def heartbeat(self) -> None:
+        """Say I am alive and what I hold."""
+        self.recovery.heartbeat()
+
+    def check_peers(self) -> None:
+        """Every heartbeat period: my peers' liveness, and the winners my house watches."""
+        self.recovery.check_peers()
+
+    def consider_bids(self) -> None:
+        """Look at the open auctions again (a robot that bids)."""
+        if self.bidder is not None:
+            self.bidder.consider_bids()
+
+    def policy_changed(self) -> None:
+        """A new policy may bid in other units or by other rules: look at everything afresh."""
+        if self.bidder is not None:
+            self.bidder.look_afresh()
 
     # --- lifecycle ----------------------------------------------------------------------
     def start(self, joined_late: bool = False) -> None:
-        self._life_proc = self.env.process(self._life_guarded())
-        self._procs.append(self._life_proc)
-        self._spawn(self._tick())
+        self.life_proc = self.env.process(self._life_guarded())
+        self._procs.append(self.life_proc)
+        self.spawn(self.recovery.beat())
         if joined_late:
             self.ctx.bus.publish(
-                Hello(sender=self.name, rtype=self.rtype, wants_work=self.wants_work())
+                Hello(
+                    sender=self.name,
+                    rtype=self.rtype,
+                    wants_work=self.search is not None and self.search.wants_work(),
+                )
             )
-
-    def wants_work(self) -> bool:
-        """Hook: a scout with nothing to scan asks for a share of the search."""
-        return False
 
     def _life_guarded(self) -> Any:
         while True:
@@ -65,7 +224,7 @@ class Robot(Charging, Recovery):
             except simpy.Interrupt as irq:
                 if irq.cause != "revoked" or not self.alive:
                     return
-                self._end_motion()  # the task was taken back: stop and look again
+                self.mobility.stop()  # the task was taken back: stop and look again
                 self.on_revoked()
 
     def life(self) -> Any:
@@ -74,8 +233,8 @@ class Robot(Charging, Recovery):
             if self.leaving:
                 self.go_quiet()
                 return
-            if self.battery is not None and self.needs_charge():
-                yield from self.recharge()
+            if self.charging is not None and self.charging.needs_charge():
+                yield from self.charging.recharge()
                 continue
             if self.queue:
                 self.current = self.queue.popleft()
@@ -99,12 +258,12 @@ class Robot(Charging, Recovery):
             self.state = "idle"
             yield self.wait_for_wake()
             return
-        if self.battery is not None and not self.energy_for_trip(spot):
+        if self.charging is not None and not self.charging.trip_allowed(spot):
             return  # to the charger first (`life`)
         if dist(self.pos, spot) > NEAR:
             self.state = "travelling"
             try:
-                yield from self.go_to(spot)
+                yield from self.mobility.go_to(spot)
             except PlanningError:
                 pass
             else:
@@ -113,7 +272,25 @@ class Robot(Charging, Recovery):
         self.state = "idle"
         yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
 
-    # --- energy (the rest is `Charging`) ----------------------------------------------------
+    def regain_contact(self) -> Any:
+        """Radio range: an idle robot out of the base station's reach drives back into it,
+        where auctions can reach it (and its own be heard)."""
+        radio = self.ctx.radio
+        assert radio is not None
+        spot = radio.contact_point(self.pos)
+        charging = self.charging
+        if charging is not None and not charging.trip_allowed(spot):
+            if self.rtype != "scout":
+                return  # to the charger first (`life`): it is in reach anyway
+            yield from charging.recharge()
+            return
+        self.state = "travelling"
+        try:
+            yield from self.mobility.go_to(spot)
+        except PlanningError:
+            self.state = "idle"
+            yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
+
     def run_dry(self) -> None:
         """The battery is empty: the robot stops where it is, a failure like any other."""
         obs = self.ctx.observer
@@ -121,177 +298,13 @@ class Robot(Charging, Recovery):
         self.fail()
         obs.emit("robot_failed", robot=self.name, x=self.pos[0], y=self.pos[1], cause="energy")
 
-    def regain_contact(self) -> Any:
-        """Radio range: an idle robot out of the base station's reach drives back into it,
-        where auctions can reach it (and its own be heard)."""
-        radio = self.ctx.radio
-        assert radio is not None
-        spot = radio.contact_point(self.pos)
-        if self.battery is not None and not self.energy_for_trip(spot):
-            if self.rtype != "scout":
-                return  # to the charger first (`life`): it is in reach anyway
-            yield from self.recharge()
-            return
-        self.state = "travelling"
-        try:
-            yield from self.go_to(spot)
-        except PlanningError:
-            self.state = "idle"
-            yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
-
-    def on_revoked(self) -> None:
-        """Hook: tidy up after the current task was revoked mid-way."""
-        self.current = None
-        self.consider_bids()
-
-    def _tick(self) -> Any:
-        proto = self.ctx.scenario.protocol
-        offset = (self.ctx.liveness.index[self.name] % 10) * proto.heartbeat_s / 10
-        try:
-            yield self.env.timeout(offset)
-            while True:
-                self.heartbeat()
-                self.check_peers()
-                yield self.env.timeout(proto.heartbeat_s)
-        except simpy.Interrupt:
-            return
-
-    # --- messages -----------------------------------------------------------------------
     def on_message(self, msg: Message) -> None:
+        """Every message the bus brings me, handed to the part it concerns."""
         if not self.alive:
             return
         handler = _HANDLERS.get(type(msg))
         if handler is not None:
             handler(self, msg)
-
-    def _on_announce(self, msg: Announce) -> None:
-        task_id, aid = msg.task_id, msg.auction_id
-        if task_id in self.completed:
-            # offered again from an old record (a watcher back from a failure that missed my
-            # TaskDone): it is done, say so again and the auctioneer withdraws it
-            self.ctx.bus.publish(
-                TaskDone(
-                    sender=self.name, auction_id=msg.auction_id, task_id=msg.task_id, outcome="done"
-                )
-            )
-            return
-        cur = self.current
-        if (cur is not None and cur.task_id == task_id) or (
-            self.queue and any(a.task_id == task_id for a in self.queue)
-        ):
-            self.ctx.bus.publish(
-                Holding(sender=self.name, task_id=msg.task_id, auction_id=msg.auction_id)
-            )
-            return
-        rounds = self.rounds
-        if aid in rounds:  # a re-announcement: only the round is new
-            rounds[aid] = msg.round
-            if aid in self.open_auctions:
-                self.consider_bids()
-            return
-        self.rounds[msg.auction_id] = msg.round
-        info = OpenAuction(
-            msg.auction_id,
-            msg.auctioneer,
-            msg.task_type,
-            msg.location,
-            msg.task_id,
-            msg.opened_at,
-            msg.search_path,
-        )
-        if self.peer_type(msg.sender) == self.rtype:
-            self.peer_open.setdefault(msg.sender, {})[msg.auction_id] = info
-        # a duplicate auction for a task I am auctioning: the smaller name keeps it
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == msg.task_id and rec.id != msg.auction_id and msg.sender < self.name:
-                self.house.cancel(rec.id)
-        self.on_task_heard(info)
-        if msg.task_type == self.capability:
-            self.note_auction(info)
-            self.consider_bids()
-
-    def on_task_heard(self, info: OpenAuction) -> None:
-        """Hook: any announcement (scouts learn of sites their peers found)."""
-
-    def _on_bid(self, msg: Bid) -> None:
-        if msg.auctioneer == self.name:
-            self.house.on_bid(msg)
-
-    def _on_ack(self, msg: Ack) -> None:
-        if msg.auctioneer == self.name:
-            self.house.on_ack(msg)
-
-    def _on_close(self, msg: Close) -> None:
-        info = self.forget_auction(msg.auction_id)
-        if self.my_bids.pop(msg.auction_id, None) is not None:
-            self._refused = None
-            self._quiet_on = None
-        peer = self.peer_open.get(msg.sender)
-        if peer is not None:
-            peer.pop(msg.auction_id, None)
-            if msg.allocated_to is not None:
-                self.note_peer_alloc(
-                    msg.sender,
-                    Allocation(
-                        msg.auction_id,
-                        msg.task_id,
-                        msg.task_type,
-                        msg.location,
-                        msg.allocated_to,
-                        float(self.env.now),
-                    ),
-                )
-        self.on_close_heard(msg)
-        if self.reserved is not None and self.reserved.auction_id == msg.auction_id:
-            reserved, self.reserved = self.reserved, None
-            if msg.allocated_to == self.name and self.alive:
-                self.assign(
-                    Assignment(
-                        reserved.auction_id,
-                        reserved.auctioneer,
-                        reserved.task_type,
-                        reserved.task_id,
-                        reserved.location,
-                        reserved.search_path,
-                    )
-                )
-        elif info is not None or msg.allocated_to is not None:
-            self.consider_bids()
-
-    def on_close_heard(self, msg: Close) -> None:
-        """Hook: subclasses track what others were allocated (coalition partners)."""
-
-    def _on_task_done(self, msg: TaskDone) -> None:
-        # only the robot a task was allocated to ends that allocation (a duplicate holder's
-        # "void" must not end the real holder's watch)
-        self.end_peer_alloc(msg.task_id, msg.sender)
-        alloc = self.house.allocations.get(msg.task_id)
-        if alloc is not None and alloc.winner == msg.sender:
-            del self.house.allocations[msg.task_id]
-        else:
-            alloc = None
-        if alloc is not None and msg.outcome == "released":
-            self.reauction(alloc, None)
-        elif msg.outcome == "done":
-            for rec in list(self.house.open_auctions.values()):
-                if rec.task_id == msg.task_id:
-                    self.house.cancel(rec.id)
-        self.on_task_done_heard(msg)
-
-    def on_task_done_heard(self, msg: TaskDone) -> None:
-        """Hook for subclasses."""
-
-    def _on_hello(self, msg: Hello) -> None:
-        self.peers[msg.sender] = msg.rtype
-        self.house.reannounce_open()
-        self.return_duties(msg.sender)
-        self.on_hello_heard(msg)
-
-    def on_hello_heard(self, msg: Hello) -> None:
-        """Hook: scouts share their remaining cells with a newcomer."""
-
-    def on_handoff_heard(self, msg: Handoff) -> None:
-        """Hook: scouts track who scans which cells."""
 
     # --- tasks --------------------------------------------------------------------------
     def assign(self, a: Assignment) -> None:
@@ -308,9 +321,9 @@ class Robot(Charging, Recovery):
     def finish(self, a: Assignment, outcome: Literal["done", "void", "released"] = "done") -> None:
         self.current = None
         if outcome != "released":  # a released task is not done: its watcher offers it again
-            self.done_ids.append(a.task_id)
+            self.recovery.done_ids.append(a.task_id)
         if outcome == "done" or (outcome == "void" and a.task_type == "transport"):
-            self.completed.add(a.task_id)  # final: no one need ever carry this again
+            self.recovery.completed.add(a.task_id)  # final: no one need ever carry this again
         self.ctx.observer.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
         self.ctx.bus.publish(
             TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)
@@ -320,7 +333,7 @@ class Robot(Charging, Recovery):
     # --- operator-driven failures -------------------------------------------------------
     def fail(self) -> None:
         """Abrupt failure: stop where it is; nothing is sent or answered any more."""
-        self._end_motion()
+        self.mobility.stop()
         self.alive = False
         self.enabled = False
         self.state = "failed"
@@ -329,13 +342,10 @@ class Robot(Charging, Recovery):
             if p.is_alive and p is not me:
                 p.interrupt("failed")
         self._procs.clear()
-        self.dormant = self.dormant.merge(self.house.stop())
+        self.recovery.dormant = self.recovery.dormant.merge(self.house.stop())
         self.drop_loads()
         self.current = None
         self.queue.clear()
-
-    def drop_loads(self) -> None:
-        """Hook: whatever it carries falls where it stands."""
 
     def disable(self) -> None:
         """Graceful: take nothing new, finish the current hand-over, then say goodbye."""
@@ -345,7 +355,8 @@ class Robot(Charging, Recovery):
     def go_quiet(self) -> None:
         """The end of a graceful disable: announce it, then stop like a failure. Its open
         auctions stay open for the peer that adopts them (cancelling would lose their tasks)."""
-        self.ctx.bus.publish(Leaving(sender=self.name, progress=self.progress()))
+        progress = 0 if self.search is None else self.search.progress()
+        self.ctx.bus.publish(Leaving(sender=self.name, progress=progress))
         self.fail()
         self.state = "disabled"
         self.ctx.observer.emit("robot_quiet", robot=self.name)
@@ -363,26 +374,173 @@ class Robot(Charging, Recovery):
         self.state = "idle"
         self.current = None
         self.queue.clear()
-        self._reset_knowledge()
-        self.house = AuctionHouse(self.name, self.ctx, self._on_allocated)
-        self.rejoining = True
-        self.taken_back = set()
+        self.rounds = {}
+        if self.bidder is not None:
+            self.bidder.reset()
+        recovery = self.recovery
+        recovery.forget_verdicts()
+        self.house = _house_for(self)
+        recovery.rejoining = True
+        recovery.taken_back = set()
         self.start(joined_late=True)
-        self._spawn(self.rejoin())
+        self.spawn(recovery.rejoin())
+
+    # --- hooks the robot types fill in ----------------------------------------------------
+    def load(self) -> int:
+        """Minerals aboard (a bucket, a bin)."""
+        return 0
+
+    def drop_loads(self) -> None:
+        """Failed: whatever it carries falls where it stands."""
+
+    def on_revoked(self) -> None:
+        """The current task was revoked mid-way: tidy up and look again."""
+        self.current = None
+        self.consider_bids()
+
+    def on_close_heard(self, msg: Close) -> None:
+        """Any Close (a hauler learns where its coalition partner works)."""
+
+    def on_task_done_heard(self, msg: TaskDone) -> None:
+        """Any TaskDone."""
+
+    def on_rejoined(self) -> None:
+        """My earlier duties are settled."""
+
+
+def _house_for(robot: Robot) -> AuctionHouse:
+    """A robot's auctioneer part, for a new life: it offers a lost task again unless a live
+    peer of its type already does."""
+    return AuctionHouse(
+        robot.name,
+        robot.ctx,
+        kind=AUCTION_KINDS.get(robot.rtype, "operator"),
+        peer_offers=robot.recovery.peer_handles,
+        holders_carry=robot.rtype != "scout",  # a site does not move with its excavator
+    )
+
+
+def _until_interrupted(gen: Any) -> Any:
+    try:
+        yield from gen
+    except simpy.Interrupt:
+        return
+
+
+# --- messages, each to the part it concerns ---------------------------------------------------
+def _on_announce(robot: Robot, msg: Announce) -> None:
+    task_id, aid = msg.task_id, msg.auction_id
+    recovery, bidder = robot.recovery, robot.bidder
+    if task_id in recovery.completed:
+        # offered again from an old record (a watcher back from a failure that missed my
+        # TaskDone): it is done, say so again and the auctioneer withdraws it
+        robot.ctx.bus.publish(
+            TaskDone(sender=robot.name, auction_id=aid, task_id=task_id, outcome="done")
+        )
+        return
+    cur = robot.current
+    if (cur is not None and cur.task_id == task_id) or (
+        robot.queue and any(a.task_id == task_id for a in robot.queue)
+    ):
+        robot.ctx.bus.publish(Holding(sender=robot.name, task_id=task_id, auction_id=aid))
+        return
+    rounds = robot.rounds
+    if aid in rounds:  # a re-announcement: only the round is new
+        rounds[aid] = msg.round
+        if bidder is not None and aid in bidder.open_auctions:
+            bidder.consider_bids()
+        return
+    rounds[aid] = msg.round
+    info = OpenAuction(
+        aid,
+        msg.auctioneer,
+        msg.task_type,
+        msg.location,
+        task_id,
+        msg.opened_at,
+        msg.search_path,
+    )
+    if recovery.peer_type(msg.sender) == robot.rtype:
+        recovery.peer_open.setdefault(msg.sender, {})[aid] = info
+    # a duplicate auction for a task I am auctioning: the smaller name keeps it
+    robot.house.yield_duplicate(aid, task_id, msg.sender)
+    if robot.search is not None:  # scouts learn of sites their peers found
+        robot.search.on_task_heard(msg.task_type, task_id)
+    if bidder is not None and msg.task_type == robot.capability:
+        bidder.note_auction(info)
+        bidder.consider_bids()
+
+
+def _on_close(robot: Robot, msg: Close) -> None:
+    bidder = robot.bidder
+    if bidder is None:
+        robot.rounds.pop(msg.auction_id, None)
+        info = None
+    else:
+        info = bidder.closed(msg.auction_id)
+    peer = robot.recovery.peer_open.get(msg.sender)
+    if peer is not None:
+        peer.pop(msg.auction_id, None)
+        if msg.allocated_to is not None:
+            robot.recovery.note_peer_alloc(
+                msg.sender,
+                Allocation(
+                    msg.auction_id,
+                    msg.task_id,
+                    msg.task_type,
+                    msg.location,
+                    msg.allocated_to,
+                    float(robot.env.now),
+                ),
+            )
+    robot.on_close_heard(msg)
+    if bidder is None:
+        return
+    reserved = bidder.reserved
+    if reserved is not None and reserved.auction_id == msg.auction_id:
+        bidder.reserved = None
+        if msg.allocated_to == robot.name and robot.alive:
+            robot.assign(
+                Assignment(
+                    reserved.auction_id,
+                    reserved.auctioneer,
+                    reserved.task_type,
+                    reserved.task_id,
+                    reserved.location,
+                    reserved.search_path,
+                )
+            )
+    elif info is not None or msg.allocated_to is not None:
+        bidder.consider_bids()
+
+
+def _on_bid(robot: Robot, msg: Bid) -> None:
+    if msg.auctioneer == robot.name:
+        robot.house.on_bid(msg)
+
+
+def _on_ack(robot: Robot, msg: Ack) -> None:
+    if msg.auctioneer == robot.name:
+        robot.house.on_ack(msg)
+
+
+def _on_award(robot: Robot, msg: Award) -> None:
+    if robot.bidder is not None:
+        robot.bidder.on_award(msg)
 
 
 _HANDLERS: dict[type[Message], Any] = {
-    Announce: Robot._on_announce,
-    Bid: Robot._on_bid,
-    Award: Robot._on_award,
-    Ack: Robot._on_ack,
-    Close: Robot._on_close,
-    TaskDone: Robot._on_task_done,
-    Holding: Robot._on_holding,
-    Takeover: Robot._on_takeover,
-    Leaving: Robot._on_leaving,
-    Hello: Robot._on_hello,
-    Handoff: lambda robot, msg: robot.on_handoff_heard(msg),
-    Probe: Robot._on_probe,
-    Revoke: Robot._on_revoke,
+    Announce: _on_announce,
+    Bid: _on_bid,
+    Award: _on_award,
+    Ack: _on_ack,
+    Close: _on_close,
+    TaskDone: lambda robot, msg: robot.recovery.on_task_done(msg),
+    Holding: lambda robot, msg: robot.recovery.on_holding(msg),
+    Takeover: lambda robot, msg: robot.recovery.on_takeover(msg),
+    Leaving: lambda robot, msg: robot.recovery.on_leaving(msg),
+    Hello: lambda robot, msg: robot.recovery.on_hello(msg),
+    Handoff: lambda robot, msg: robot.search and robot.search.on_handoff_heard(msg),
+    Probe: lambda robot, msg: robot.recovery.on_probe(msg),
+    Revoke: lambda robot, msg: robot.recovery.on_revoke(msg),
 }

@@ -1,27 +1,170 @@
-"""The bidder role every capable robot plays (docs/spec.md §6.2–6.5): which open auctions to bid in
-(the policy decides), the utility it bids, answering awards, and holding an accepted award
-until the auctioneer's Close confirms it. Split from `base` so each file holds one concept."""
+"""The bidding part of a robot that can carry out tasks (docs/spec.md §6.2–6.5): the open
+auctions it could serve, which to bid in (the policy decides), the utility it bids, answering
+awards, and holding an accepted award until the auctioneer's Close confirms it.
+
+Scouts and the operator carry out no auctioned task and have no bidding part. The policy
+reads the robot through this part (`engine.bidding.RobotView`).
+"""
 
 from __future__ import annotations
 
+import bisect
 import math
-from typing import Any
+from collections import deque
+from operator import attrgetter
+from typing import TYPE_CHECKING, Any, Protocol
 
 import simpy
 
-from engine.bidding import BidMemory, Bids, refused_all
+from engine.bidding import BidMemory, Bids, OpenAuction, refused_all
 from engine.geometry import Point, path_length
-from engine.messages import Ack, Award, Bid
+from engine.messages import Ack, Award, Bid, Heartbeat, TaskType
 from engine.planning import PlanningError
-from engine.policies import OpenAuction, PendingAward, Policy
-from engine.robots.core import RobotCore
+from engine.policies import PendingAward, Policy
+
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+    from engine.energy import Battery
+    from engine.robots.charging import Charging
+    from engine.robots.core import Assignment
+    from engine.robots.mobility import Mobility
+
+_OPENING = attrgetter("order")
+"""An open auction's place in opening order (`OpenAuction.order`), as a sort key."""
 
 
-class Bidder(RobotCore):
-    """The bidder role of a robot."""
+class BiddingRobot(Protocol):
+    """What the bidding part needs of its robot: who and where it is, what it holds, and the
+    type's own answers to the policy (`free_at`, and for coalitions `paired`,
+    `partner_working`, `stranded`)."""
 
-    def _on_award(self, msg: Award) -> None:
-        if msg.winner != self.name:
+    name: str
+    rtype: str
+    ctx: MissionContext
+    battery: Battery | None
+    mobility: Mobility
+    charging: Charging | None
+    current: Assignment | None
+    queue: deque[Assignment]
+    rounds: dict[str, int]
+
+    @property
+    def capability(self) -> TaskType | None: ...
+    @property
+    def participating(self) -> bool: ...
+    @property
+    def down(self) -> set[str]: ...
+    def load(self) -> int: ...
+    def spawn(self, gen: Any) -> None: ...
+    def free_at(self) -> tuple[float, Point]: ...
+    def paired(self) -> bool: ...
+    def partner_working(self) -> bool: ...
+    def stranded(self, a: OpenAuction) -> bool: ...
+
+
+class Bidder:
+    """The bidder role of a robot, and its view for the policy."""
+
+    def __init__(self, robot: BiddingRobot) -> None:
+        self.robot = robot
+        self.name = robot.name
+        self.rtype = robot.rtype
+        self.ctx = robot.ctx
+        self.env = robot.ctx.env
+        protocol = robot.ctx.scenario.protocol
+        self._every_round = protocol.busy_bid == "every_round"
+        self._silent_when_busy = protocol.busy_bid == "silent"
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything heard (a new life after a failure)."""
+        self.open_auctions: dict[str, OpenAuction] = {}  # the ones I can serve
+        self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
+        self.my_bids: dict[str, tuple[int, float]] = {}
+        self._refused: bool | None = None  # -inf bid in every auction of _in_order (cache)
+        self._quiet_on: list[OpenAuction] | None = None  # busy with nothing to send
+        self._quiet_policy: Policy | None = None
+        self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
+        self.reserved: OpenAuction | None = None
+        self.pending_awards: list[PendingAward] = []
+
+    # --- what I know of the auctions I could serve ---------------------------------------
+    def note_auction(self, info: OpenAuction) -> None:
+        """An auction I can serve opened. Its place in `_in_order` is found by bisection
+        rather than by sorting again: hundreds of robots hear each of hundreds of open
+        auctions at scale, and a sort per announcement per robot was a tenth of a run."""
+        self.open_auctions[info.auction_id] = info
+        order = self._in_order
+        if order is None or info.auctioneer in self.robot.down:
+            return
+        order = order.copy()  # a new list: a caller may still hold the old one
+        bisect.insort(order, info, key=_OPENING)
+        self._in_order = order
+        prev = self.my_bids.get(info.auction_id)
+        if prev is None or prev[1] != -math.inf:
+            self._refused = False
+
+    def forget_auction(self, auction_id: str) -> OpenAuction | None:
+        self.robot.rounds.pop(auction_id, None)
+        info = self.open_auctions.pop(auction_id, None)
+        order = self._in_order
+        if info is None or order is None or info.auctioneer in self.robot.down:
+            return info
+        order = order.copy()
+        del order[bisect.bisect_left(order, info.order, key=_OPENING)]  # openings are unique
+        self._in_order = order
+        if self._refused is False:
+            self._refused = None  # the one not refused may be the one gone
+        return info
+
+    def auctions_in_order(self) -> list[OpenAuction]:
+        """Open auctions I can serve, by opening order, minus those of auctioneers I think down."""
+        if self._in_order is None:
+            self._refused = None
+            down = self.robot.down
+            self._in_order = sorted(
+                (a for a in self.open_auctions.values() if a.auctioneer not in down),
+                key=_OPENING,
+            )
+        return self._in_order
+
+    def auctioneers_changed(self) -> None:
+        """A peer was found down or came back: its auctions count again, or no more."""
+        self._in_order = None
+
+    def closed(self, auction_id: str) -> OpenAuction | None:
+        """The auction closed (its Close): forgotten, with my bid in it."""
+        info = self.forget_auction(auction_id)
+        if self.my_bids.pop(auction_id, None) is not None:
+            self._refused = None
+            self._quiet_on = None
+        return info
+
+    def missed_closes(self) -> None:
+        """An auction whose auctioneer no longer lists it has closed (its Close was missed)."""
+        board = self.ctx.liveness
+        latest: dict[str, Heartbeat | None] = {}
+        for aid, info in list(self.open_auctions.items()):
+            who = info.auctioneer
+            hb = (
+                latest[who]
+                if who in latest
+                else latest.setdefault(who, board.last_heartbeat(self.robot.name, who))
+            )
+            if hb is not None and hb.t > info.opened_at + 1e-9 and aid not in hb.open_auctions:
+                self.forget_auction(aid)
+
+    def auctioneer_down(self, peer: str) -> None:
+        """A silent or departed auctioneer's auctions are forgotten, its award let go."""
+        for aid, info in list(self.open_auctions.items()):
+            if info.auctioneer == peer:
+                self.forget_auction(aid)
+        if self.reserved is not None and self.reserved.auctioneer == peer:
+            self.reserved = None
+
+    # --- awards -------------------------------------------------------------------------
+    def on_award(self, msg: Award) -> None:
+        if msg.winner != self.robot.name:
             return
         info = self.open_auctions.get(msg.auction_id)
         bid = self.my_bids.get(msg.auction_id)
@@ -29,7 +172,7 @@ class Bidder(RobotCore):
             info is None
             or bid is None
             or not self.can_take()
-            or not self.energy_allows(info.task_type, info.location)
+            or not self._allowed(info.task_type, info.location)
         ):
             self._answer(msg.auction_id, msg.auctioneer, msg.location, False)
             return
@@ -37,7 +180,7 @@ class Bidder(RobotCore):
         if self.ctx.policy.collects_awards():
             self.pending_awards.append(award)
             if len(self.pending_awards) == 1:
-                self._spawn(self._resolve_awards())
+                self.robot.spawn(self._resolve_awards())
         else:
             self._accept(award)
 
@@ -57,15 +200,15 @@ class Bidder(RobotCore):
         a = award.auction
         self.reserved = a
         self._answer(a.auction_id, a.auctioneer, a.location, True)
-        self._spawn(self._reservation_timer(a))
+        self.robot.spawn(self._reservation_timer(a))
 
     def _answer(self, auction_id: str, auctioneer: str, location: Point, yes: bool) -> None:
         self.ctx.bus.publish(
             Ack(
-                sender=self.name,
+                sender=self.robot.name,
                 auction_id=auction_id,
                 auctioneer=auctioneer,
-                winner=self.name,
+                winner=self.robot.name,
                 location=location,
                 accepted=yes,
             )
@@ -83,45 +226,70 @@ class Bidder(RobotCore):
             self.reserved = None
             self.consider_bids()
 
-    # --- bidding ------------------------------------------------------------------------
+    # --- room for more ------------------------------------------------------------------
     def busy(self) -> bool:
-        return self.reserved is not None or self.current is not None or bool(self.queue)
+        robot = self.robot
+        return self.reserved is not None or robot.current is not None or bool(robot.queue)
 
     def can_take(self) -> bool:
-        return self.participating and self.has_room()
+        return self.robot.participating and self.has_room()
 
     def held(self) -> int:
         """Tasks won and not finished: the current one and the queue."""
-        return (self.current is not None) + len(self.queue)
+        return (self.robot.current is not None) + len(self.robot.queue)
 
     def has_room(self) -> bool:
         """Free to win one more task: nothing reserved and no more held than the policy lets
         a robot queue (under Policies 1–3, exactly `not busy()`)."""
+        battery = self.robot.battery
         return (
             self.reserved is None
             and self.held() <= self.ctx.policy.queue_limit(self.rtype)
-            and (self.battery is None or not self.battery.must_charge)
+            and (battery is None or not battery.must_charge)
         )
 
+    # --- the policy's view of me (engine.bidding.RobotView) -------------------------------
     def paired(self) -> bool:
-        """Paired with a live partner under a coalition policy (Policy 2)."""
-        partner = self.partner
-        return partner is not None and self.ctx.policy.coalitions() and self.peer_alive(partner)
+        return self.robot.paired()
 
     def partner_working(self) -> bool:
-        return False
+        return self.robot.partner_working()
 
     def stranded(self, a: OpenAuction) -> bool:
-        return False
+        return self.robot.stranded(a)
 
-    def policy_changed(self) -> None:
-        """A new policy may bid in other units or by other rules: look at everything afresh."""
+    def free_at(self) -> tuple[float, Point]:
+        """When (seconds from now) and where this robot will be free, by its own estimate."""
+        return self.robot.free_at()
+
+    def eta_to(self, a: OpenAuction) -> float:
+        """Seconds until this robot could stand at the task: finish what it holds, then drive."""
+        wait, start = self.free_at()
+        try:
+            length = path_length(self.ctx.planner.plan(start, a.location))
+        except PlanningError:
+            return math.inf
+        return wait + length / self.robot.mobility.speed
+
+    def cost_to(self, a: OpenAuction) -> float:
+        """Length of the path this robot would drive to the task (docs/spec.md §6.2); inf if
+        there is none."""
+        try:
+            return path_length(self.ctx.planner.plan(self.robot.mobility.pos, a.location))
+        except PlanningError:
+            return math.inf
+
+    # --- bidding ------------------------------------------------------------------------
+    def look_afresh(self) -> None:
+        """Something my time bids come from changed outside my view (a new policy, a full
+        battery): look at everything afresh."""
         self._bid_situation = ()
         self.consider_bids()
 
     def consider_bids(self) -> None:
         """Send the bids my policy asks for, given what I know (`engine/bidding.py`)."""
-        if not self.participating or self.capability is None:
+        robot = self.robot
+        if not robot.participating or robot.capability is None:
             return
         auctions = self.auctions_in_order()
         if not auctions:
@@ -132,7 +300,14 @@ class Bidder(RobotCore):
         quiet = busy and not every_round
         if quiet and self._quiet_on is auctions and self._quiet_policy is policy:
             return  # busy, and nothing I bid from changed since I last had nothing to send
-        situation = (busy, self.current, len(self.queue), self.reserved, self.load(), self.pos)
+        situation = (
+            busy,
+            robot.current,
+            len(robot.queue),
+            self.reserved,
+            robot.load(),
+            robot.mobility.pos,
+        )
         if quiet and policy.targets_pure and self._refused_all():
             # no room, and -inf said in every auction I know: no bid, whatever the targets
             self._bid_situation = situation
@@ -146,13 +321,13 @@ class Bidder(RobotCore):
         mem = BidMemory(
             busy=busy,
             sent=self.my_bids,
-            rounds=self.rounds,
+            rounds=robot.rounds,
             changed=situation != self._bid_situation,
             every_round=every_round,
         )
         self._bid_situation = situation
         bids = policy.bids(self, targets, mem)
-        if self.battery is not None:
+        if robot.battery is not None:
             bids = self._within_reach(bids)
         for a, rnd, utility in bids:
             self._bid(a, rnd, utility)
@@ -175,36 +350,15 @@ class Bidder(RobotCore):
     def _within_reach(self, bids: Bids) -> Bids:
         """Energy: a task I could not finish and still reach a charger gets -inf, and then I
         go to charge (so does every other bid of this look: I am busy charging)."""
-        if all(
-            not math.isfinite(u) or self.energy_allows(a.task_type, a.location) for a, _, u in bids
-        ):
+        allows = self._allowed
+        if all(not math.isfinite(u) or allows(a.task_type, a.location) for a, _, u in bids):
             return bids
         return [(a, rnd, -math.inf) for a, rnd, _ in bids]
 
-    def energy_allows(self, task_type: str, where: Point) -> bool:
-        """Could I do this task and still reach a charger (`Robot`)?"""
-        raise NotImplementedError
-
-    def eta_to(self, a: OpenAuction) -> float:
-        """Seconds until this robot could stand at the task: finish what it holds, then drive."""
-        wait, start = self.free_at()
-        try:
-            length = path_length(self.ctx.planner.plan(start, a.location))
-        except PlanningError:
-            return math.inf
-        return wait + length / self.speed
-
-    def free_at(self) -> tuple[float, Point]:
-        """When (seconds from now) and where this robot will be free, from its own state."""
-        return 0.0, self.position()[0]
-
-    def cost_to(self, a: OpenAuction) -> float:
-        """Length of the path this robot would drive to the task (docs/spec.md §6.2); inf if
-        there is none."""
-        try:
-            return path_length(self.ctx.planner.plan(self.pos, a.location))
-        except PlanningError:
-            return math.inf
+    def _allowed(self, task_type: str, where: Point) -> bool:
+        """Energy: could I do this task and still reach a charger (no battery: yes)?"""
+        charging = self.robot.charging
+        return charging is None or charging.allows(task_type, where)
 
     def _bid(self, a: OpenAuction, rnd: int, utility: float) -> None:
         prev = self.my_bids.get(a.auction_id)
@@ -219,10 +373,10 @@ class Bidder(RobotCore):
             return  # busy_bid = silent: no finite bid of mine to withdraw, so -inf says nothing
         self.ctx.bus.publish(
             Bid(
-                sender=self.name,
+                sender=self.robot.name,
                 auction_id=a.auction_id,
                 auctioneer=a.auctioneer,
-                bidder=self.name,
+                bidder=self.robot.name,
                 location=a.location,
                 utility=utility,
                 round=rnd,

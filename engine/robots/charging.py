@@ -1,79 +1,129 @@
-"""A robot's battery (engine/energy.py; only with the scenario's energy section on): when to
-charge, the trip to a charger, and whether a task or a trip leaves enough to get back.
-
-A bidder's concern, since a robot that could not finish a task and still reach a charger
-bids -inf for it (`energy_allows`) and bids again once charged.
-"""
+"""A robot's charging part (engine/energy.py; it acts only with the scenario's energy section
+on): when to charge, the trip to a charger, and whether a task or a trip leaves enough to get
+back. A robot that could not finish a task and still reach a charger bids -inf for it
+(`allows`) and bids again once charged. The operator's console has no battery and no such
+part."""
 
 from __future__ import annotations
 
-from typing import Any
+from collections import deque
+from typing import TYPE_CHECKING, Any, Protocol
 
+from engine.energy import Powered
 from engine.field import NEAR
-from engine.geometry import dist
+from engine.geometry import Point, dist
 from engine.planning import PlanningError
-from engine.robots.bidder import Bidder
+
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+    from engine.energy import Battery
+    from engine.robots.core import Assignment
+    from engine.robots.mobility import Mobility
 
 
-class Charging(Bidder):
+class ChargingRobot(Powered, Protocol):
+    """What the charging part needs of its robot (and the energy model reads of it)."""
+
+    name: str
+    ctx: MissionContext
+    battery: Battery | None
+    mobility: Mobility
+
+    @property
+    def queue(self) -> deque[Assignment]: ...
+    @property
+    def state(self) -> str: ...
+    @state.setter
+    def state(self, value: str) -> None: ...
+
+    @property
+    def bidder(self) -> _Rebidder | None: ...
+    def wake(self) -> None: ...
+
+
+class _Rebidder(Protocol):
+    def look_afresh(self) -> None:
+        """Bid again from scratch (charged: my time bids change)."""
+        ...
+
+
+class Charging:
     """The battery side of a robot: charge when a task is out of reach, drive to charge."""
+
+    def __init__(self, robot: ChargingRobot) -> None:
+        self.robot = robot
+        self.ctx = robot.ctx
+        self.env = robot.ctx.env
 
     def needs_charge(self) -> bool:
         """A task was out of reach, or the next one I hold is: charge before going on."""
-        bat, energy = self.battery, self.ctx.energy
+        robot = self.robot
+        bat, energy = robot.battery, self.ctx.energy
         assert bat is not None and energy is not None
-        if not bat.must_charge and self.queue:
-            nxt = self.queue[0]
-            bat.must_charge = not energy.can_start(self, nxt.task_type, nxt.location)
+        if not bat.must_charge and robot.queue:
+            nxt = robot.queue[0]
+            bat.must_charge = not energy.can_start(robot, nxt.task_type, nxt.location)
         return bat.must_charge
 
     def recharge(self) -> Any:
         """Drive to the nearest charger and fill the battery; bid again afterwards."""
-        bat, energy = self.battery, self.ctx.energy
+        robot, body = self.robot, self.robot.mobility
+        bat, energy = robot.battery, self.ctx.energy
         assert bat is not None and energy is not None
-        charger = energy.nearest_charger(self.pos)
-        if dist(self.pos, charger) > NEAR:
-            self.state = "travelling"
+        charger = energy.nearest_charger(body.pos)
+        if dist(body.pos, charger) > NEAR:
+            robot.state = "travelling"
             try:
-                yield from self.go_to(charger)
+                yield from body.go_to(charger)
             except PlanningError:
                 if charger == energy.plant:
                     raise
-                yield from self.go_to(energy.plant)
-        self.state = "charging"
+                yield from body.go_to(energy.plant)
+        robot.state = "charging"
         t0 = float(self.env.now)
-        self.ctx.observer.emit("charge_started", robot=self.name, level_kj=bat.level_at(t0))
+        self.ctx.observer.emit("charge_started", robot=robot.name, level_kj=bat.level_at(t0))
         try:
             yield self.env.timeout(energy.charge_s(bat))
             bat.settle(float(self.env.now))
             bat.level = bat.capacity
             bat.must_charge = False
             energy.charges += 1
-            self.state = "idle"
-            self.ctx.observer.emit("charged", robot=self.name)
+            robot.state = "idle"
+            self.ctx.observer.emit("charged", robot=robot.name)
         finally:
             bat.charging_s += float(self.env.now) - t0
-        self._bid_situation = ()
-        self.consider_bids()
+        if robot.bidder is not None:
+            robot.bidder.look_afresh()
 
-    def energy_for_trip(self, goal: tuple[float, float]) -> bool:
+    def trip_allowed(self, goal: Point) -> bool:
         """Energy to drive there and on to a charger? If not, I charge first."""
-        bat, energy = self.battery, self.ctx.energy
+        robot = self.robot
+        bat, energy = robot.battery, self.ctx.energy
         assert bat is not None and energy is not None
-        length = dist(self.pos, goal) * energy.cfg.detour
-        if energy.can_drive(self, length, goal) or bat.level_at(self.env.now) >= bat.capacity:
+        length = dist(robot.mobility.pos, goal) * energy.cfg.detour
+        if energy.can_drive(robot, length, goal) or bat.level_at(self.env.now) >= bat.capacity:
             return True
         bat.must_charge = True
         return False
 
-    def energy_allows(self, task_type: str, where: tuple[float, float]) -> bool:
+    def allows(self, task_type: str, where: Point) -> bool:
         """Could I do this task and still reach a charger? If not, I go to charge."""
         energy = self.ctx.energy
-        if energy is None or energy.feasible(self, task_type, where):
+        if energy is None or energy.feasible(self.robot, task_type, where):
             return True
-        bat = self.battery
+        bat = self.robot.battery
         assert bat is not None
         if not bat.must_charge and bat.level_at(float(self.env.now)) < bat.capacity:
             bat.must_charge = True  # (full and still out of reach: charging would not help)
-            self.wake()
+            self.robot.wake()
+        return False
+
+    def bucket_allowed(self, site: Point) -> bool:
+        """Energy for one more dig and transfer and the drive to a charger? If not, the site
+        is released (offered again) and I go to charge."""
+        energy = self.ctx.energy
+        if energy is None or energy.can_dig_one_more(self.robot, site):
+            return True
+        assert self.robot.battery is not None
+        self.robot.battery.must_charge = True
         return False

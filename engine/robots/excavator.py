@@ -7,16 +7,17 @@ from typing import TYPE_CHECKING, Any, cast
 import simpy
 
 from engine.auction_rules import Allocation
+from engine.bidding import OpenAuction
 from engine.field import NEAR
-from engine.geometry import Point, dist, path_length
-from engine.messages import Close
-from engine.planning import PlanningError
+from engine.geometry import Point, dist
+from engine.robots.base import Robot
+from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
-from engine.robots.transport import TransportAuctioneer
+from engine.robots.rendezvous import Taker
+from engine.robots.transport import Transports
 
 if TYPE_CHECKING:
     from engine.field import SiteState
-    from engine.robots.hauler import Hauler
 
 
 def transports_due(
@@ -37,22 +38,23 @@ def transports_due(
     return j - opened, (due if j < pile and due < dig_s else None)
 
 
-class Excavator(TransportAuctioneer):
+class Excavator(Robot):
     rtype = "excavator"
     capability = "excavate"
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
+        self.bidder = Bidder(self)
         self.bucket = 0
         self.minerals_dug = 0
         self.waiting_for: str | None = None  # transport task id of the mineral in my bucket
         self._arrival: simpy.Event | None = None
-        self.partner_here: Hauler | None = None
-        self._ground_serial = 0
+        self.partner_here: Taker | None = None
         # transports auctioned ahead of their minerals (a lead policy), next mineral first
         self.ahead: list[str] = []
-        self.early: dict[str, Hauler] = {}  # haulers that came for one of them and stand by
+        self.early: dict[str, Taker] = {}  # haulers that came for one of them and stand by
         self.transfer_now_s = self.ctx.scenario.timing.transfer_s  # the transfer under way
+        self.transports = Transports(self)
 
     def load(self) -> int:
         return self.bucket
@@ -62,21 +64,25 @@ class Excavator(TransportAuctioneer):
 
     def excavate(self, a: Assignment) -> Any:
         self.state = "travelling"
-        self.auction_on_the_way(a)
-        yield from self.go_to(a.location)
+        self.transports.auction_on_the_way(a)
+        yield from self.mobility.go_to(a.location)
         site = self.ctx.field.site_at(a.location)
         if self.ahead:
             for r in self.ctx.robots.values():
                 if r.rtype == "hauler" and dist(r.pos, self.pos) <= NEAR:
                     r.wake()  # a hauler that came ahead of me sees me arrive
-        self.auction_ground_minerals()
+        self.transports.auction_ground_minerals()
         if site is None or site.remaining == 0 or site.worker not in (None, self.name):
-            self._drop_ahead()
+            self.transports.drop_ahead(self.early)
             self.finish(a, "void")  # nothing here, or another excavator is already digging
             return
         site.worker = site.last_worker = self.name
         try:
-            while site.remaining > 0 and not self.leaving and self.energy_for_a_bucket(site):
+            while (
+                site.remaining > 0
+                and not self.leaving
+                and (self.charging is None or self.charging.bucket_allowed((site.x, site.y)))
+            ):
                 self.state = "digging"
                 yield from self.dig(site)
                 site.remaining -= 1
@@ -86,7 +92,9 @@ class Excavator(TransportAuctioneer):
                     "dug", robot=self.name, site=site.id, remaining=site.remaining
                 )
                 if self.ahead and not self.ctx.policy.early_transports():
-                    self._drop_ahead()  # the policy changed: no more transports ahead
+                    self.transports.drop_ahead(
+                        self.early
+                    )  # the policy changed: no more transports ahead
                 if self.ahead:
                     yield from self.hand_over_ahead(site)
                 else:
@@ -94,18 +102,8 @@ class Excavator(TransportAuctioneer):
         finally:
             if site.worker == self.name:
                 site.worker = None
-            self._drop_ahead()
+            self.transports.drop_ahead(self.early)
         self.finish(a, "done" if site.remaining == 0 else "released")
-
-    def energy_for_a_bucket(self, site: SiteState) -> bool:
-        """Energy: enough for one more dig and transfer and the drive to a charger? If not,
-        the site is released (offered again) and I go to charge."""
-        energy = self.ctx.energy
-        if energy is None or energy.can_dig_one_more(self, (site.x, site.y)):
-            return True
-        assert self.battery is not None
-        self.battery.must_charge = True
-        return False
 
     def dig(self, site: SiteState) -> Any:
         """Dig one bucket. Under a policy with a transport lead L, the transport of every mineral
@@ -115,7 +113,9 @@ class Excavator(TransportAuctioneer):
         dig_s = cfg.timing.dig_s
         haul_s = dist((site.x, site.y), self.ctx.world.plant) / cfg.speeds.hauler
         lead = self.ctx.policy.transport_lead_s(haul_s, dig_s)
-        took = self.work_s(dig_s)  # the lead is planned on the mean dig; this one may differ
+        took = self.mobility.work_s(
+            dig_s
+        )  # the lead is planned on the mean dig; this one may differ
         if lead <= 0.0:
             yield self.env.timeout(took)
             return
@@ -123,56 +123,26 @@ class Excavator(TransportAuctioneer):
             site.remaining, len(self.ahead), dig_s, cfg.timing.transfer_s, lead
         )
         for _ in range(now):
-            self._auction_ahead(site)
+            self.transports.auction_ahead(site)
         if later is None:
             yield self.env.timeout(took)
         else:
             first = min(later, took)
             yield self.env.timeout(first)
-            self._auction_ahead(site)
+            self.transports.auction_ahead(site)
             yield self.env.timeout(took - first)
-
-    def _auction_ahead(self, site: SiteState | Point) -> None:
-        where = site if isinstance(site, tuple) else (site.x, site.y)
-        task_id = self._transport_id("t")
-        self.ahead.append(task_id)
-        self.house.open("transport", where, task_id, kind="excavator_hauler")
-
-    def auction_on_the_way(self, a: Assignment) -> None:
-        """Under a transport lead, the first mineral's transport falls due while I drive to the
-        site (a pile holds at least one): auction it then, so a hauler arrives about when I do."""
-        cfg = self.ctx.scenario
-        dig_s = cfg.timing.dig_s
-        haul_s = dist(a.location, self.ctx.world.plant) / cfg.speeds.hauler
-        lead = self.ctx.policy.transport_lead_s(haul_s, dig_s)
-        if lead <= 0.0 or self.ahead:
-            return
-        try:
-            drive_s = path_length(self.ctx.planner.plan(self.pos, a.location)) / self.speed
-        except PlanningError:
-            return
-        due = drive_s + dig_s - lead
-        if due <= 0.0:
-            self._auction_ahead(a.location)
-        else:
-            self._spawn(self._auction_when_due(a, due))
-
-    def _auction_when_due(self, a: Assignment, due: float) -> Any:
-        yield self.env.timeout(due)
-        if self.current is a and self.state == "travelling" and not self.ahead:
-            self._auction_ahead(a.location)
 
     def hand_over_ahead(self, site: SiteState) -> Any:
         """Empty the bucket into the bin of any hauler standing by for one of my transports
         (the earliest such transport takes this mineral); wait if none is here yet."""
         while self.bucket:
             if not self.ahead:
-                self._auction_ahead(site)  # more in the pile than expected: one more now
+                self.transports.auction_ahead(site)  # more in the pile than expected: one more now
             for i, task_id in enumerate(self.ahead):
-                if task_id not in self.house.allocations and not self._transport_open(task_id):
+                if not self.house.watching(task_id) and not self.house.is_open(task_id):
                     # it ended without this pile's mineral (void, lost, or its hauler carried
                     # another): a new transport, under a new id (the old one is over for good)
-                    self.ahead[i] = self._transport_id("t")
+                    self.ahead[i] = self.transports.new_id("t")
                     self.house.open(
                         "transport", (site.x, site.y), self.ahead[i], kind="excavator_hauler"
                     )
@@ -186,20 +156,13 @@ class Excavator(TransportAuctioneer):
                     self.ahead.remove(task_id)
                 self.waiting_for = None
                 continue
-            if self.ctx.radio is not None and self.unheard(self.ahead[0]):
-                yield from self.report_in(site, self.ahead[0])
+            if self.ctx.radio is not None and self.transports.unheard(self.ahead[0]):
+                yield from self.transports.report_in(site, self.ahead[0])
                 continue
             self._arrival = arrival = self.env.event()
             self.state = "waiting"
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             self._arrival = None
-
-    def _drop_ahead(self) -> None:
-        """Leaving the pile: transports not yet won are withdrawn (the won ones end void)."""
-        for task_id in self.ahead:
-            self._cancel_transport(task_id)
-        self.ahead.clear()
-        self.early.clear()
 
     def hand_over(self, site: SiteState) -> Any:
         """Empty the bucket into a hauler's bin: the waiting partner's, or an auction winner's.
@@ -211,7 +174,7 @@ class Excavator(TransportAuctioneer):
         self.waiting_for = task_id
         offered = False
         while self.bucket:
-            on_its_way = task_id in self.house.allocations
+            on_its_way = self.house.watching(task_id)
             partner = self.partner_here
             if (
                 not on_its_way
@@ -219,30 +182,30 @@ class Excavator(TransportAuctioneer):
                 and partner is not None
                 and partner.ready_for(self)
             ):
-                self._cancel_transport(task_id)
+                self.house.cancel_task(task_id)
                 yield from self.transfer(partner, site)
                 continue
-            if not on_its_way and not self._transport_open(task_id):
+            if not on_its_way and not self.house.is_open(task_id):
                 if offered:  # the last one ended without this mineral: a new one, a new id
-                    task_id = self.waiting_for = self._transport_id("r")
+                    task_id = self.waiting_for = self.transports.new_id("r")
                 self.house.open("transport", (site.x, site.y), task_id, kind="excavator_hauler")
                 offered = True
-            if self.ctx.radio is not None and self.unheard(task_id):
-                yield from self.report_in(site, task_id)
+            if self.ctx.radio is not None and self.transports.unheard(task_id):
+                yield from self.transports.report_in(site, task_id)
                 continue
             self._arrival = arrival = self.env.event()
             self.state = "waiting"
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             self._arrival = None
             if arrival.triggered:
-                hauler = cast("Hauler", arrival.value)
-                self._cancel_transport(task_id)
+                hauler = cast("Taker", arrival.value)
+                self.house.cancel_task(task_id)
                 yield from self.transfer(hauler, site)
         self.waiting_for = None
 
-    def transfer(self, hauler: Hauler, site: SiteState) -> Any:
+    def transfer(self, hauler: Taker, site: SiteState) -> Any:
         self.state = "loading"
-        self.transfer_now_s = self.work_s(self.ctx.scenario.timing.transfer_s)
+        self.transfer_now_s = self.mobility.work_s(self.ctx.scenario.timing.transfer_s)
         hauler.loading_from = self
         yield self.env.timeout(self.transfer_now_s)
         hauler.loading_from = None
@@ -251,15 +214,17 @@ class Excavator(TransportAuctioneer):
         task_id = self.waiting_for
         assert task_id is not None
         self.bucket = 0
-        if task_id not in self.house.allocations:
+        if not self.house.watching(task_id):
             # a coalition hand-over, outside any auction: watch its delivery all the same
-            self.house.allocations[task_id] = Allocation(
-                f"{self.name}/coalition",
-                task_id,
-                "transport",
-                (site.x, site.y),
-                hauler.name,
-                float(self.env.now),
+            self.house.watch(
+                Allocation(
+                    f"{self.name}/coalition",
+                    task_id,
+                    "transport",
+                    (site.x, site.y),
+                    hauler.name,
+                    float(self.env.now),
+                )
             )
         hauler.receive(self, task_id)
         self.ctx.observer.emit(
@@ -269,7 +234,7 @@ class Excavator(TransportAuctioneer):
     def free_at(self) -> tuple[float, Point]:
         """Done with the site it works (the pile it sees, or an average one it has not seen
         yet) and every queued site."""
-        here = self.position()[0]
+        here = self.mobility.position()[0]
         if self.current is None and not self.queue:
             return 0.0, here
         cfg, v = self.ctx.scenario, self.speed
@@ -290,7 +255,7 @@ class Excavator(TransportAuctioneer):
         return t, pos
 
     # --- physical rendezvous with haulers (they stand beside me) --------------------------
-    def hauler_arrived(self, hauler: Hauler, task_id: str) -> bool:
+    def hauler_arrived(self, hauler: Taker, task_id: str) -> bool:
         arrival = self._arrival
         ready = self.alive and self.bucket and self.waiting_for == task_id
         if ready and arrival is not None and not arrival.triggered:
@@ -307,73 +272,34 @@ class Excavator(TransportAuctioneer):
         """Is this transport for the mineral in my bucket, or one I am about to dig?"""
         return task_id == self.waiting_for or task_id in self.ahead
 
-    def partner_arrived(self, hauler: Hauler) -> None:
+    def partner_arrived(self, hauler: Taker) -> None:
         self.partner_here = hauler
-        rec_open = any(r.task_id == self.waiting_for for r in self.house.open_auctions.values())
+        waiting_for = self.waiting_for
+        rec_open = waiting_for is not None and self.house.is_open(waiting_for)
         if self._arrival is not None and not self._arrival.triggered and rec_open:
             self._arrival.succeed(hauler)
 
-    def partner_left(self, hauler: Hauler) -> None:
+    def partner_left(self, hauler: Taker) -> None:
         if self.partner_here is hauler:
             self.partner_here = None
 
     def paired(self) -> bool:
         return False  # excavators bid as Policy 1 under Policy 2
 
-    def auction_ground_minerals(self) -> None:
-        """Minerals lying where I stand (a failed robot's) get a transport, unless one is known."""
-        here = self.pos
-        for g in list(self.ctx.field.ground):
-            if dist((g.x, g.y), here) > NEAR or self._transport_known_at((g.x, g.y)):
-                continue
-            self._ground_serial += 1
-            self.house.open(
-                "transport",
-                (g.x, g.y),
-                f"{self.name}#g{self._ground_serial}",
-                kind="excavator_hauler",
-            )
+    def partner_working(self) -> bool:
+        return False
 
-    def _transport_known_at(self, p: Point) -> bool:
-        """Is a transport for a mineral lying here already offered or under way? My own pile's
-        transports do not count (they are for what I dig), nor is old news about peers
-        believed: their auctions must be fresh, their winners must still list the task."""
-        pile = {*self.ahead, self.waiting_for}
-        board = self.ctx.liveness
-        known = [
-            (r.task_type, r.location)
-            for r in self.house.open_auctions.values()
-            if r.task_id not in pile
-        ]
-        known += [
-            (a.task_type, a.location)
-            for a in self.house.allocations.values()
-            if a.task_id not in pile
-        ]
-        for allocs in self.peer_alloc.values():
-            for a in allocs.values():
-                hb = board.last_heartbeat(self.name, a.winner)
-                if hb is not None and a.task_id in hb.tasks:
-                    known.append((a.task_type, a.location))
-        known += [
-            (a.task_type, a.location)
-            for peer in self.peer_open
-            for a in self.peer_open[peer].values()
-            if self.peer_handles(a.task_id)
-        ]
-        return any(t == "transport" and dist(loc, p) <= NEAR for t, loc in known)
-
-    def on_close_heard(self, msg: Close) -> None:
-        pass
+    def stranded(self, a: OpenAuction) -> bool:
+        return False
 
     def when_free(self) -> Any:
         """Idle: a mineral lying where I stand (my own bucket's, if I failed here) gets a
         transport like any I find on arrival."""
-        self.auction_ground_minerals()
+        self.transports.auction_ground_minerals()
         yield from super().when_free()
 
     def on_rejoined(self) -> None:
-        self.auction_ground_minerals()
+        self.transports.auction_ground_minerals()
 
     def on_revoked(self) -> None:
         site = self.ctx.field.site_at(self.pos)
@@ -381,7 +307,7 @@ class Excavator(TransportAuctioneer):
             site.worker = None
         self.waiting_for = None
         self._arrival = None
-        self._drop_ahead()
+        self.transports.drop_ahead(self.early)
         super().on_revoked()
 
     def drop_loads(self) -> None:

@@ -2,19 +2,19 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import simpy
 
+from engine.bidding import OpenAuction
 from engine.field import NEAR
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
-from engine.policies import OpenAuction, coalition_partner
+from engine.policies import coalition_partner
 from engine.robots.base import Robot
+from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
-
-if TYPE_CHECKING:
-    from engine.robots.excavator import Excavator
+from engine.robots.rendezvous import Giver
 
 SENSE = 2.0
 """How far a hauler sees a mineral lying on the ground while it drives."""
@@ -27,11 +27,12 @@ class Hauler(Robot):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
+        self.bidder = Bidder(self)
         self.bin = 0
         self._loaded: simpy.Event | None = None
         self.partner_site: Point | None = None
         self._partner_done: set[str] = set()  # sites my partner finished or left
-        self.loading_from: Excavator | None = None  # a bucket is being emptied into my bin
+        self.loading_from: Giver | None = None  # a bucket is being emptied into my bin
 
     def load(self) -> int:
         return self.bin
@@ -43,7 +44,7 @@ class Hauler(Robot):
         if self.following():
             site = self.partner_site
             assert site is not None
-            if not self.energy_allows("transport", site):
+            if self.charging is not None and not self.charging.allows("transport", site):
                 return  # to the charger first (`Robot.life`)
             yield from self.follow_partner()
         else:
@@ -52,7 +53,7 @@ class Hauler(Robot):
     # --- auctioned transport ------------------------------------------------------------
     def transport(self, a: Assignment) -> Any:
         self.state = "travelling"
-        yield from self.go_to(a.location)
+        yield from self.mobility.go_to(a.location)
         exc = self._excavator_here(lambda e: e.expects(a.task_id))
         if exc is None and (self.ctx.policy.early_transports() or self.ctx.radio is not None):
             # (radio range: the excavator may have driven into reach to offer this transport)
@@ -80,7 +81,7 @@ class Hauler(Robot):
         drive_s = dist((hb.x, hb.y), a.location) / cfg.speeds.excavator
         deadline = hb.t + drive_s + cfg.protocol.failure_timeout_s
         self.state = "waiting"
-        while self.env.now < deadline and self.peer_alive(a.auctioneer):
+        while self.env.now < deadline and self.recovery.peer_alive(a.auctioneer):
             exc = self._excavator_here(lambda e: e.expects(a.task_id))
             if exc is not None:
                 return exc
@@ -90,7 +91,7 @@ class Hauler(Robot):
             yield self.wait_for_wake() | self.env.timeout(min(left, cfg.protocol.heartbeat_s))
         return None
 
-    def wait_loaded(self, exc: Excavator, task_id: str) -> Any:
+    def wait_loaded(self, exc: Giver, task_id: str) -> Any:
         """Stand by the excavator until it has emptied its bucket into my bin (longer if I came
         early for a mineral it is still digging, as long as it still expects me)."""
         self.state = "waiting"
@@ -101,7 +102,7 @@ class Hauler(Robot):
             yield loaded | self.env.timeout(limit)
         self._loaded = None
 
-    def can_receive(self, exc: Excavator) -> bool:
+    def can_receive(self, exc: Giver) -> bool:
         """Alive, still waiting to be loaded beside the excavator, with an empty bin: a mineral
         can move over (a hauler that failed and came back mid-transfer is not waiting)."""
         return (
@@ -111,7 +112,7 @@ class Hauler(Robot):
             and dist(self.pos, exc.pos) <= NEAR
         )
 
-    def receive(self, exc: Excavator, task_id: str) -> None:
+    def receive(self, exc: Giver, task_id: str) -> None:
         """The excavator empties its bucket into my bin; a coalition hand-over is my task now."""
         self.bin = 1
         if self.current is None:
@@ -133,27 +134,29 @@ class Hauler(Robot):
                 if segment_point_distance(a, b, (g.x, g.y)) <= SENSE
             )
             for _, _, spot in seen:
-                yield from self.go_to(spot)
+                yield from self.mobility.go_to(spot)
                 if self.ctx.field.ground_near(self.pos, SENSE) is not None:
                     return
-            yield from self.go_to(b)
+            yield from self.mobility.go_to(b)
 
     def pick_from_ground(self, p: Point) -> Any:
         g = self.ctx.field.ground_near(p, SENSE)
         if g is None:
             return
         if dist(p, (g.x, g.y)) > NEAR:
-            yield from self.go_to((g.x, g.y))
+            yield from self.mobility.go_to((g.x, g.y))
         self.state = "loading"
-        yield self.env.timeout(self.work_s(self.ctx.scenario.timing.transfer_s))
+        yield self.env.timeout(self.mobility.work_s(self.ctx.scenario.timing.transfer_s))
         if g in self.ctx.field.ground:
             self.bin = 1
             self.ctx.field.pick_ground(g, self.name)
 
     def deliver(self) -> Any:
         self.state = "carrying"
-        yield from self.drive(self.ctx.planner.plan(self.pos, self.ctx.world.plant), report=True)
-        unload_s = self.work_s(self.ctx.scenario.timing.unload_s)
+        yield from self.mobility.drive(
+            self.ctx.planner.plan(self.pos, self.ctx.world.plant), report=True
+        )
+        unload_s = self.mobility.work_s(self.ctx.scenario.timing.unload_s)
         docks = self.ctx.docks
         if docks is None:
             self.state = "unloading"
@@ -163,7 +166,7 @@ class Hauler(Robot):
         self.bin = 0
         self.ctx.field.note_delivery(self.name)
 
-    def _excavator_here(self, pred: Any) -> Excavator | None:
+    def _excavator_here(self, pred: Any) -> Giver | None:
         for r in self.ctx.robots.values():
             if r.rtype == "excavator" and r.alive and dist(r.pos, self.pos) <= NEAR and pred(r):
                 return r  # type: ignore[return-value]
@@ -172,7 +175,7 @@ class Hauler(Robot):
     def free_at(self) -> tuple[float, Point]:
         """Done with what it holds at the plant, after the current trip and every queued one
         (straight-line estimates for all but the bid's own leg)."""
-        here = self.position()[0]
+        here = self.mobility.position()[0]
         if self.current is None and not self.queue:
             return 0.0, here
         timing, v, plant = self.ctx.scenario.timing, self.speed, self.ctx.world.plant
@@ -180,7 +183,7 @@ class Hauler(Robot):
         cur = self.current
         if cur is not None:
             if self.bin:
-                route = self.remaining_route()
+                route = self.mobility.remaining_route()
                 t += (path_length(route) if len(route) > 1 else dist(here, plant)) / v
             else:
                 t += (dist(here, cur.location) + dist(cur.location, plant)) / v + timing.transfer_s
@@ -196,7 +199,7 @@ class Hauler(Robot):
         site = self.partner_site
         assert site is not None
         self.state = "travelling"
-        yield from self.go_to(site)
+        yield from self.mobility.go_to(site)
         partner = self.partner
         if self.queue or not self.following():
             return  # won a task or was released while driving: back to the main loop
@@ -228,6 +231,15 @@ class Hauler(Robot):
             if self.current is not None:
                 self.finish(self.current)
 
+    def paired(self) -> bool:
+        """Paired with a live partner under a coalition policy (Policy 2)."""
+        partner = self.partner
+        return (
+            partner is not None
+            and self.ctx.policy.coalitions()
+            and self.recovery.peer_alive(partner)
+        )
+
     def partner_working(self) -> bool:
         return self.partner_site is not None
 
@@ -238,13 +250,17 @@ class Hauler(Robot):
     def stranded(self, a: OpenAuction) -> bool:
         """No unpaired hauler is alive to take this transport (paired haulers take only their
         partner's minerals, and a partner never bids), as far as I know."""
-        for h in self.peers_of_type("hauler"):
+        for h in self.recovery.peers_of_type("hauler"):
             mate = coalition_partner(h)
-            if h != self.name and self.peer_alive(h) and not (mate and self.peer_alive(mate)):
+            if (
+                h != self.name
+                and self.recovery.peer_alive(h)
+                and not (mate and self.recovery.peer_alive(mate))
+            ):
                 return False  # an unpaired hauler is alive: it can carry
         return True
 
-    def ready_for(self, exc: Excavator) -> bool:
+    def ready_for(self, exc: Giver) -> bool:
         """Standing by this excavator with an empty bin, waiting for its bucket?"""
         return (
             self.alive
@@ -254,7 +270,7 @@ class Hauler(Robot):
             and dist(self.pos, exc.pos) <= NEAR
         )
 
-    def standing_by(self, exc: Excavator) -> bool:
+    def standing_by(self, exc: Giver) -> bool:
         """Came early for a transport and waits beside this excavator for its bucket?"""
         return (
             self.alive

@@ -1,238 +1,200 @@
-"""The recovery role every robot plays: heartbeats, noticing a silent peer (probes before a
-verdict), re-auctioning what it held, adopting a dead peer's auctions and watched tasks, and
-settling false alarms (Holding/Revoke). Split from `base` so each file holds one concept."""
+"""The recovery part every robot has: heartbeats, what it knows of its peers (who they are,
+whom it thinks down, what they auction and watch), noticing a silent peer (probes before a
+verdict), adopting a dead peer's auctions and watched tasks, settling false alarms
+(Holding/Revoke), and settling its own duties when it comes back from a failure.
+
+Watching the winners of its own auctions and offering their tasks again is the auction
+house's (`engine.auction_house`); this part tells the house when a winner is found down.
+"""
 
 from __future__ import annotations
 
 from collections import deque
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
+
+import simpy
 
 from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
-from engine.messages import Heartbeat, Holding, Leaving, Probe, Revoke, Takeover
-from engine.planning import PlanningError
-from engine.robots.core import RobotCore
+from engine.bidding import OpenAuction
+from engine.messages import Heartbeat, Hello, Holding, Leaving, Probe, Revoke, Takeover, TaskDone
+
+if TYPE_CHECKING:
+    from engine.auction_house import AuctionHouse
+    from engine.context import MissionContext
+    from engine.robots.bidder import Bidder
+    from engine.robots.core import Assignment
+    from engine.robots.mobility import Mobility
+
+DONE_MEMORY = 8
+"""How many finished task ids a heartbeat repeats, for auctioneers that missed a TaskDone."""
 
 
-class Recovery(RobotCore):
-    """The recovery role of a robot."""
+class RecoveringRobot(Protocol):
+    """What the recovery part needs of its robot: what it is and holds, its other parts, and
+    the hooks a robot type fills in (a scout's search: `adopt_extra`, `on_cells_taken`, …)."""
 
-    # --- liveness, monitoring, adoption ---------------------------------------------------
+    name: str
+    rtype: str
+    ctx: MissionContext
+    house: AuctionHouse
+    bidder: Bidder | None
+    mobility: Mobility
+    peers: dict[str, str]
+    current: Assignment | None
+    queue: deque[Assignment]
+    life_proc: Any
+
+    @property
+    def state(self) -> str: ...
+    @property
+    def participating(self) -> bool: ...
+    @property
+    def down(self) -> set[str]: ...
+    def heartbeat(self) -> None: ...
+    def check_peers(self) -> None: ...
+    def wake(self) -> None: ...
+    def consider_bids(self) -> None: ...
+    def spawn(self, gen: Any) -> None: ...
+    def tasks_held(self) -> list[Assignment]: ...
+    def load(self) -> int: ...
+    @property
+    def search(self) -> SearchHooks | None: ...
+    def on_rejoined(self) -> None: ...
+    def on_task_done_heard(self, msg: TaskDone) -> None: ...
+
+
+class SearchHooks(Protocol):
+    """What recovery tells a scout's share of the search (`engine.robots.search.Search`)."""
+
+    def reported(self) -> int: ...
+    def handoffs_received(self) -> tuple[str, ...]: ...
+    def adopt_extra(self, peer: str) -> list[int]: ...
+    def on_cells_taken(self, cells: tuple[int, ...]) -> None: ...
+    def on_adoption_undone(self, failed: str) -> None: ...
+    def on_takeover_heard(self, msg: Takeover) -> None: ...
+    def on_hello_heard(self, msg: Hello) -> None: ...
+    def check_handoffs(self) -> None: ...
+
+
+class Recovery:
+    """Liveness, adoption and the return from a failure, for one robot."""
+
+    def __init__(self, robot: RecoveringRobot) -> None:
+        self.robot = robot
+        self.name = robot.name
+        self.ctx = robot.ctx
+        self.env = robot.ctx.env
+        self._probing: set[str] = set()
+        # Memory that survives a failure: what others were responsible for (for adoption),
+        # whose duties I took over, tasks I finished, and my own duties while I am down.
+        self.peer_open: dict[str, dict[str, OpenAuction]] = {}
+        self.peer_alloc: dict[str, dict[str, Allocation]] = {}
+        self._alloc_peers: dict[str, set[str]] = {}  # task id -> peers whose peer_alloc has it
+        self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
+        self.adopted_tasks: dict[str, tuple[str, ...]] = {}  # failed peer -> its tasks I hold
+        self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
+        self.done_ids: deque[str] = deque(maxlen=DONE_MEMORY)
+        self.completed: set[str] = set()  # tasks I finished for good
+        self.dormant = Duties()
+        self.rejoining = False
+        self.taken_back: set[str] = set()  # my tasks a peer took over while I was down
+        self.forget_verdicts()
+
+    def forget_verdicts(self) -> None:
+        """A new life: nobody is thought down."""
+        self.down: set[str] = set()
+        self.down_at: dict[str, float] = {}
+
+    # --- heartbeats and peers -------------------------------------------------------------
+    def beat(self) -> Any:
+        """Every heartbeat period (offset by my place on the board): say I am alive, and
+        look at my peers (`check_peers`)."""
+        robot = self.robot
+        proto = self.ctx.scenario.protocol
+        offset = (self.ctx.liveness.index[self.name] % 10) * proto.heartbeat_s / 10
+        try:
+            yield self.env.timeout(offset)
+            while True:
+                robot.heartbeat()
+                robot.check_peers()
+                yield self.env.timeout(proto.heartbeat_s)
+        except simpy.Interrupt:
+            return
+
     def heartbeat(self) -> None:
-        pos, _ = self.position()
-        tasks = tuple(a.task_id for a in self.tasks_held())
-        load = self.load()
+        robot = self.robot
+        pos, _ = robot.mobility.position()
+        tasks = tuple(a.task_id for a in robot.tasks_held())
+        load = robot.load()
         self.ctx.bus.publish(
             # built from this robot's own state, whose types are the message's: validation
             # is for what arrives from outside (`field.wire.decode`), and a heartbeat is the
             # commonest message there is
             Heartbeat.model_construct(
                 sender=self.name,
-                rtype=self.rtype,
+                rtype=robot.rtype,
                 t=float(self.env.now),
                 x=pos[0],
                 y=pos[1],
-                state=self.state,
+                state=robot.state,
                 tasks=tasks,
-                open_auctions=tuple(self.house.open_auctions),
-                progress=self.progress(),
+                open_auctions=robot.house.open_ids(),
+                progress=0 if robot.search is None else robot.search.reported(),
                 # the route matters only to whoever must search for a mineral I carry
-                path=tuple(self.remaining_route()[:16]) if load else (),
+                path=tuple(robot.mobility.remaining_route()[:16]) if load else (),
                 load=load,
                 done=tuple(self.done_ids),
                 adopted=tuple(self.adopted),
-                received=self.handoffs_received(),
+                received=() if robot.search is None else robot.search.handoffs_received(),
             )
         )
 
-    def check_peers(self) -> None:
-        proto = self.ctx.scenario.protocol
-        now = float(self.env.now)
-        board = self.ctx.liveness
-        back = [p for p in self.down if board.last_heard(self.name, p) > self.down_at[p]]
-        for peer in back:
-            self.down.discard(peer)  # heard again since: it is back
-            self._in_order = None
-        if back:  # its auctions count again, and a partner may be back: look again
-            self.wake()
-            self.consider_bids()
-        radio = self.ctx.radio
-        for peer in board.silent(self.name, now, proto.failure_timeout_s):
-            if peer not in self.down and peer not in self._probing:
-                if radio is not None and radio.presumed_out_of_reach(self, peer, now):
-                    continue  # out of range is not failed: it gets radio.silent_timeout_s
-                self._probing.add(peer)
-                self._spawn(self._probe(peer))
-        # an auction whose auctioneer no longer lists it has closed (we missed the Close)
-        latest: dict[str, Heartbeat | None] = {}
-        for aid, info in list(self.open_auctions.items()):
-            who = info.auctioneer
-            hb = (
-                latest[who]
-                if who in latest
-                else latest.setdefault(who, board.last_heartbeat(self.name, who))
-            )
-            if hb is not None and hb.t > info.opened_at + 1e-9 and aid not in hb.open_auctions:
-                self.forget_auction(aid)
-        # a winner that neither lists a task nor reports it done has dropped it
-        grace = 2 * proto.heartbeat_s + proto.ack_timeout_s
-        for tid, alloc in list(self.house.allocations.items()):
-            hb = board.last_heartbeat(self.name, alloc.winner)
-            if hb is None or hb.t < alloc.since + grace:
-                continue
-            if tid in hb.done:
-                del self.house.allocations[tid]
-            elif tid not in hb.tasks:
-                del self.house.allocations[tid]
-                self.reauction(alloc, hb)
+    def peer_type(self, name: str) -> str | None:
+        """What a peer is, as far as messages have told me (None: never heard of it)."""
+        peers = self.robot.peers
+        rtype = peers.get(name)
+        if rtype is None:
+            hb = self.ctx.liveness.last_heartbeat(self.name, name)
+            if hb is not None:
+                rtype = peers[name] = hb.rtype
+        return rtype
 
-    def _probe(self, peer: str) -> Any:
-        """Ask a silent peer directly a few times before declaring it failed: on a lossy bus a
-        run of lost heartbeats is not a failure, and a false alarm costs a duplicate task."""
-        proto = self.ctx.scenario.protocol
-        asked_at = float(self.env.now)
-        try:
-            for _ in range(proto.probes):
-                self.ctx.bus.publish(Probe(sender=self.name, target=peer))
-                yield self.env.timeout(proto.ack_timeout_s)
-                if self.ctx.liveness.last_heard(self.name, peer) >= asked_at:
-                    return
-        finally:
-            self._probing.discard(peer)
-        if peer not in self.down and self.participating:
-            self.mark_down(peer)
+    def peers_of_type(self, rtype: str) -> list[str]:
+        """Every robot of this type I know of, me included, by name."""
+        for name in self.ctx.liveness.names:  # the senders whose heartbeats reach me
+            self.peer_type(name)
+        return sorted(n for n, t in self.robot.peers.items() if t == rtype)
 
-    def peer_down(self, peer: str) -> None:
-        """`peer` fell silent or left: re-auction what it held from me, adopt its duties."""
-        self.ctx.observer.emit("failure_detected", by=self.name, robot=peer)
-        board = self.ctx.liveness
-        for tid, alloc in list(self.house.allocations.items()):
-            if alloc.winner == peer:
-                del self.house.allocations[tid]
-                self.reauction(alloc, board.last_heartbeat(self.name, peer))
-        for aid, info in list(self.open_auctions.items()):
-            if info.auctioneer == peer:
-                self.forget_auction(aid)
-        if self.reserved is not None and self.reserved.auctioneer == peer:
-            self.reserved = None
-        if self.peer_type(peer) == self.rtype and self.is_adopter(peer):
-            self.adopt(peer)
-        self.consider_bids()
+    def peer_alive(self, name: str) -> bool:
+        heard = self.ctx.liveness.last_heard(self.name, name)
+        timeout = self.ctx.scenario.protocol.failure_timeout_s
+        return name not in self.down and self.env.now - heard <= timeout
 
-    def is_adopter(self, peer: str) -> bool:
-        """The smallest-named live robot of my type adopts a silent peer."""
-        if not self.participating:
-            return False
-        for name in self.peers_of_type(self.rtype):
-            if name == peer or name in self.down:
-                continue
-            if name == self.name:
-                return True
-            if self.peer_alive(name):
-                return False
-        return False
+    def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
+        """A peer of my type allocated a task (its Close): remembered for adopting its watch."""
+        self.peer_alloc.setdefault(peer, {})[alloc.task_id] = alloc
+        self._alloc_peers.setdefault(alloc.task_id, set()).add(peer)
 
-    def adopt(self, peer: str) -> None:
-        opened: list[str] = []
-        tasks: list[str] = []
-        kind = AUCTION_KINDS.get(self.rtype, "operator")
-        for info in self.peer_open.pop(peer, {}).values():
-            rec = self.house.open(
-                info.task_type,
-                info.location,
-                info.task_id,
-                kind=kind,
-                search_path=info.search_path,
-                reauction_of=info.auction_id,
-            )
-            opened.append(rec.id)
-            tasks.append(info.task_id)
-        for tid, alloc in self.forget_peer_allocs(peer).items():
-            tasks.append(tid)
-            if alloc.winner in self.down:  # search where its holder was last heard carrying it
-                self.reauction(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
-            else:
-                self.house.allocations[tid] = alloc
-        self.adopted[peer] = opened
-        self.adopted_tasks[peer] = tuple(tasks)
-        self.adopted_cells[peer] = tuple(self.adopt_extra(peer))
-        self.ctx.observer.emit("takeover", by=self.name, robot=peer, auctions=opened)
-        self._publish_takeover(peer)
+    def forget_peer_allocs(self, peer: str) -> dict[str, Allocation]:
+        allocs = self.peer_alloc.pop(peer, {})
+        for tid in allocs:
+            self._unlist(tid, peer)
+        return allocs
 
-    def _publish_takeover(self, peer: str) -> None:
-        self.ctx.bus.publish(
-            Takeover(
-                sender=self.name,
-                failed=peer,
-                cells=self.adopted_cells.get(peer, ()),
-                tasks=self.adopted_tasks.get(peer, ()),
-            )
-        )
+    def end_peer_alloc(self, task_id: str, winner: str) -> None:
+        """`winner` reported the task finished: every peer's allocation of it to `winner` ends
+        (found through the task's index, not by a look at every peer)."""
+        for peer in list(self._alloc_peers.get(task_id, ())):
+            allocs = self.peer_alloc[peer]
+            if allocs[task_id].winner == winner:
+                del allocs[task_id]
+                self._unlist(task_id, peer)
 
-    def adopt_extra(self, peer: str) -> list[int]:
-        """Hook: scouts take over the peer's unscanned cells."""
-        return []
-
-    def reauction(self, alloc: Allocation, hb: Heartbeat | None) -> None:
-        """Offer a task again whose holder failed, released it or dropped it (unless a live
-        peer already offers or watches it: two watchers back from failures, say)."""
-        if self.peer_handles(alloc.task_id):
-            return
-        kind = AUCTION_KINDS.get(self.rtype, "operator")
-        location, search = alloc.location, alloc.search_path
-        if hb is not None and alloc.task_id not in hb.tasks:
-            # back from a failure without it, say: what it last said while it held the task
-            hb = self.ctx.liveness.last_heartbeat_about(self.name, alloc.winner, alloc.task_id)
-        if hb is not None and hb.load > 0 and hb.tasks[:1] == (alloc.task_id,):
-            # it was carrying the mineral: search along its route from where it was last heard
-            location, search = (hb.x, hb.y), hb.path
-        elif alloc.task_type == "transport" and not search:
-            # the mineral may have left the bucket before the hauler fell silent: look at the
-            # pick-up point first, then along the road from there to the plant
-            try:
-                search = self.ctx.planner.plan(location, self.ctx.world.plant)
-            except PlanningError:
-                search = ()
-        self.house.open(
-            alloc.task_type,
-            location,
-            alloc.task_id,
-            kind=kind,
-            search_path=search,
-            reauction_of=alloc.auction_id,
-        )
-
-    # --- coming back from a failure -------------------------------------------------------
-    def rejoin(self) -> Any:
-        """Settle the duties I held before I failed. Every peer that took some over says so
-        again when it hears my Hello (`return_duties`); after listening for 1.5 heartbeat
-        periods I take up the rest. No task is left with nobody; one whose Takeover was lost
-        is held twice for a while, which the protocol resolves (an auctioneer runs one auction
-        per task, duplicates between auctioneers go to the smaller name, Holding/Revoke)."""
-        yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
-        mine = self.dormant.without(self.taken_back)
-        kept = mine.without({t for t in mine.task_ids() if self.peer_handles(t)})
-        self.dormant = Duties()
-        self.rejoining = False
-        self.house.resume(kept)
-        self.ctx.observer.emit(
-            "duties_settled",
-            robot=self.name,
-            resumed=len(kept.auctions) + len(kept.watches),
-            handed_over=len(self.taken_back),
-        )
-        self.on_rejoined()
-
-    def return_duties(self, peer: str) -> None:
-        """A peer whose duties I adopted is back: tell it what I hold of them, and keep it."""
-        if peer in self.adopted and self.participating:
-            self._publish_takeover(peer)
-            self._forget_adoption(peer)
-
-    def on_cells_taken(self, cells: tuple[int, ...]) -> None:
-        """Hook: scouts drop the cells a peer scans for them now."""
-
-    def on_rejoined(self) -> None:
-        """Hook: my earlier duties are settled."""
+    def _unlist(self, task_id: str, peer: str) -> None:
+        peers = self._alloc_peers[task_id]
+        peers.discard(peer)
+        if not peers:
+            del self._alloc_peers[task_id]
 
     def peer_handles(self, task_id: str) -> bool:
         """Does a live peer of my type run an auction for this task? Only what is fresh counts:
@@ -248,79 +210,210 @@ class Recovery(RobotCore):
                     return True
         return False
 
-    def _on_holding(self, msg: Holding) -> None:
-        """A robot I re-auctioned a task from is alive and still on it: it keeps the task."""
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == msg.task_id:
-                self.house.cancel(rec.id)
-                self.house.allocations[msg.task_id] = Allocation(
-                    rec.id, rec.task_id, rec.task_type, rec.location, msg.sender, self.env.now
-                )
-                return
-        alloc = self.house.allocations.get(msg.task_id)
-        if alloc is not None and alloc.winner != msg.sender:
-            self.ctx.bus.publish(Revoke(sender=self.name, task_id=msg.task_id, robot=alloc.winner))
-            self.ctx.observer.emit(
-                "task_revoked", by=self.name, robot=alloc.winner, task_id=msg.task_id
+    # --- noticing a silent peer -----------------------------------------------------------
+    def check_peers(self) -> None:
+        robot = self.robot
+        proto = self.ctx.scenario.protocol
+        now = float(self.env.now)
+        board = self.ctx.liveness
+        bidder = robot.bidder
+        back = [p for p in self.down if board.last_heard(self.name, p) > self.down_at[p]]
+        for peer in back:
+            self.down.discard(peer)  # heard again since: it is back
+            if bidder is not None:
+                bidder.auctioneers_changed()
+        if back:  # its auctions count again, and a partner may be back: look again
+            robot.wake()
+            robot.consider_bids()
+        radio = self.ctx.radio
+        for peer in board.silent(self.name, now, proto.failure_timeout_s):
+            if peer not in self.down and peer not in self._probing:
+                if radio is not None and radio.presumed_out_of_reach(robot, peer, now):
+                    continue  # out of range is not failed: it gets radio.silent_timeout_s
+                self._probing.add(peer)
+                robot.spawn(self._probe(peer))
+        if bidder is not None:
+            bidder.missed_closes()
+        # a winner that neither lists a task nor reports it done has dropped it
+        robot.house.check_winners(2 * proto.heartbeat_s + proto.ack_timeout_s)
+        if robot.search is not None:
+            robot.search.check_handoffs()
+
+    def _probe(self, peer: str) -> Any:
+        """Ask a silent peer directly a few times before declaring it failed: on a lossy bus a
+        run of lost heartbeats is not a failure, and a false alarm costs a duplicate task."""
+        proto = self.ctx.scenario.protocol
+        asked_at = float(self.env.now)
+        try:
+            for _ in range(proto.probes):
+                self.ctx.bus.publish(Probe(sender=self.name, target=peer))
+                yield self.env.timeout(proto.ack_timeout_s)
+                if self.ctx.liveness.last_heard(self.name, peer) >= asked_at:
+                    return
+        finally:
+            self._probing.discard(peer)
+        if peer not in self.down and self.robot.participating:
+            self.mark_down(peer)
+
+    def mark_down(self, peer: str) -> None:
+        self.down.add(peer)
+        if self.robot.bidder is not None:
+            self.robot.bidder.auctioneers_changed()
+        self.down_at[peer] = float(self.env.now)
+        self.peer_down(peer)
+
+    def peer_down(self, peer: str) -> None:
+        """`peer` fell silent or left: the house offers again what it held, its auctions are
+        forgotten, and the smallest-named live robot of its type adopts its duties."""
+        robot = self.robot
+        self.ctx.observer.emit("failure_detected", by=self.name, robot=peer)
+        robot.house.winner_down(peer)
+        if robot.bidder is not None:
+            robot.bidder.auctioneer_down(peer)
+        if self.peer_type(peer) == robot.rtype and self.is_adopter(peer):
+            self.adopt(peer)
+        robot.consider_bids()
+
+    def is_adopter(self, peer: str) -> bool:
+        """The smallest-named live robot of my type adopts a silent peer."""
+        if not self.robot.participating:
+            return False
+        for name in self.peers_of_type(self.robot.rtype):
+            if name == peer or name in self.down:
+                continue
+            if name == self.name:
+                return True
+            if self.peer_alive(name):
+                return False
+        return False
+
+    def adopt(self, peer: str) -> None:
+        house = self.robot.house
+        opened: list[str] = []
+        tasks: list[str] = []
+        kind = AUCTION_KINDS.get(self.robot.rtype, "operator")
+        for info in self.peer_open.pop(peer, {}).values():
+            rec = house.open(
+                info.task_type,
+                info.location,
+                info.task_id,
+                kind=kind,
+                search_path=info.search_path,
+                reauction_of=info.auction_id,
             )
-            alloc.winner = msg.sender
+            opened.append(rec.id)
+            tasks.append(info.task_id)
+        for tid, alloc in self.forget_peer_allocs(peer).items():
+            tasks.append(tid)
+            if alloc.winner in self.down:  # search where its holder was last heard carrying it
+                house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
+            else:
+                house.watch(alloc)
+        self.adopted[peer] = opened
+        self.adopted_tasks[peer] = tuple(tasks)
+        search = self.robot.search
+        self.adopted_cells[peer] = tuple(() if search is None else search.adopt_extra(peer))
+        self.ctx.observer.emit("takeover", by=self.name, robot=peer, auctions=opened)
+        self._publish_takeover(peer)
 
-    def _on_revoke(self, msg: Revoke) -> None:
-        if msg.robot != self.name:
-            return
-        self.queue = deque(a for a in self.queue if a.task_id != msg.task_id)
-        cur = self.current
-        if cur is not None and cur.task_id == msg.task_id:
-            if self.load():  # carrying the mineral: this robot is the real holder
-                self.ctx.bus.publish(
-                    Holding(sender=self.name, task_id=cur.task_id, auction_id=cur.auction_id)
-                )
-            elif self._life_proc is not None and self._life_proc.is_alive:
-                self.ctx.observer.emit(
-                    "task_ended", robot=self.name, task_id=cur.task_id, outcome="revoked"
-                )
-                self._life_proc.interrupt("revoked")
-
-    def _on_probe(self, msg: Probe) -> None:
-        if msg.target == self.name and self.participating:
-            self.heartbeat()
+    def _publish_takeover(self, peer: str) -> None:
+        self.ctx.bus.publish(
+            Takeover(
+                sender=self.name,
+                failed=peer,
+                cells=self.adopted_cells.get(peer, ()),
+                tasks=self.adopted_tasks.get(peer, ()),
+            )
+        )
 
     def _forget_adoption(self, peer: str) -> None:
         self.adopted.pop(peer, None)
         self.adopted_tasks.pop(peer, None)
         self.adopted_cells.pop(peer, None)
 
-    def _on_takeover(self, msg: Takeover) -> None:
+    # --- coming back from a failure -------------------------------------------------------
+    def rejoin(self) -> Any:
+        """Settle the duties I held before I failed. Every peer that took some over says so
+        again when it hears my Hello (`return_duties`); after listening for 1.5 heartbeat
+        periods I take up the rest. No task is left with nobody; one whose Takeover was lost
+        is held twice for a while, which the protocol resolves (an auctioneer runs one auction
+        per task, duplicates between auctioneers go to the smaller name, Holding/Revoke)."""
+        yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
+        mine = self.dormant.without(self.taken_back)
+        kept = mine.without({t for t in mine.task_ids() if self.peer_handles(t)})
+        self.dormant = Duties()
+        self.rejoining = False
+        self.robot.house.resume(kept)
+        self.ctx.observer.emit(
+            "duties_settled",
+            robot=self.name,
+            resumed=len(kept.auctions) + len(kept.watches),
+            handed_over=len(self.taken_back),
+        )
+        self.robot.on_rejoined()
+
+    # --- messages -------------------------------------------------------------------------
+    def on_hello(self, msg: Hello) -> None:
+        """A newcomer (or a robot back): it hears my open auctions, and what I hold of its
+        earlier duties is said again, and kept."""
+        self.robot.peers[msg.sender] = msg.rtype
+        self.robot.house.reannounce_open()
+        if msg.sender in self.adopted and self.robot.participating:
+            self._publish_takeover(msg.sender)
+            self._forget_adoption(msg.sender)
+        if self.robot.search is not None:  # scouts share their remaining cells with it
+            self.robot.search.on_hello_heard(msg)
+
+    def on_task_done(self, msg: TaskDone) -> None:
+        # only the robot a task was allocated to ends that allocation (a duplicate holder's
+        # "void" must not end the real holder's watch)
+        self.end_peer_alloc(msg.task_id, msg.sender)
+        self.robot.house.task_done(msg)
+        self.robot.on_task_done_heard(msg)
+
+    def on_holding(self, msg: Holding) -> None:
+        """A robot I re-auctioned a task from is alive and still on it: it keeps the task."""
+        self.robot.house.holder_says(msg.task_id, msg.sender)
+
+    def on_revoke(self, msg: Revoke) -> None:
+        robot = self.robot
+        if msg.robot != self.name:
+            return
+        robot.queue = deque(a for a in robot.queue if a.task_id != msg.task_id)
+        cur = robot.current
+        if cur is not None and cur.task_id == msg.task_id:
+            if robot.load():  # carrying the mineral: this robot is the real holder
+                self.ctx.bus.publish(
+                    Holding(sender=self.name, task_id=cur.task_id, auction_id=cur.auction_id)
+                )
+            elif robot.life_proc is not None and robot.life_proc.is_alive:
+                self.ctx.observer.emit(
+                    "task_ended", robot=self.name, task_id=cur.task_id, outcome="revoked"
+                )
+                robot.life_proc.interrupt("revoked")
+
+    def on_probe(self, msg: Probe) -> None:
+        if msg.target == self.name and self.robot.participating:
+            self.robot.heartbeat()
+
+    def on_takeover(self, msg: Takeover) -> None:
         if msg.failed == self.name:
             if self.rejoining:  # a peer holds these of my earlier duties now
                 self.taken_back.update(msg.tasks)
-                self.on_cells_taken(msg.cells)
+                if self.robot.search is not None:
+                    self.robot.search.on_cells_taken(msg.cells)
             return
         mine = self.adopted.get(msg.failed)
         if mine is not None and msg.sender < self.name:
-            for aid in mine:
-                self.house.cancel(aid)
-            for tid, alloc in list(self.house.allocations.items()):
-                if alloc.auction_id in mine:
-                    del self.house.allocations[tid]
+            self.robot.house.drop_adopted(mine)
             self._forget_adoption(msg.failed)
-            self.on_adoption_undone(msg.failed)
+            if self.robot.search is not None:
+                self.robot.search.on_adoption_undone(msg.failed)
         self.peer_open.pop(msg.failed, None)
         self.forget_peer_allocs(msg.failed)
-        self.on_takeover_heard(msg)
+        if self.robot.search is not None:
+            self.robot.search.on_takeover_heard(msg)
 
-    def on_adoption_undone(self, failed: str) -> None:
-        """Hook: a peer with a smaller name adopted `failed` too; it keeps the work."""
-
-    def on_takeover_heard(self, msg: Takeover) -> None:
-        """Hook for subclasses."""
-
-    def _on_leaving(self, msg: Leaving) -> None:
+    def on_leaving(self, msg: Leaving) -> None:
         if msg.sender not in self.down:
             self.mark_down(msg.sender)
-
-    def mark_down(self, peer: str) -> None:
-        self.down.add(peer)
-        self._in_order = None
-        self.down_at[peer] = float(self.env.now)
-        self.peer_down(peer)

@@ -1,5 +1,6 @@
-"""The excavator's auctioneer role for transport: task ids for its transports, their open
-auctions, and, with radio range on, reporting in when nobody hears one.
+"""The excavator's transport desk: the transports it auctions for its minerals (ahead of
+the bucket under a lead policy, for a full bucket, for a mineral lying where it stands),
+their task ids, and, with radio range on, reporting in when nobody hears one.
 
 Out of range of the base station an excavator's transport auction may reach no idle hauler;
 it then drives into reach with the full bucket until a hauler wins the transport
@@ -10,37 +11,138 @@ from __future__ import annotations
 
 import contextlib
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
-from engine.geometry import dist
+from engine.energy import Powered
+from engine.field import NEAR
+from engine.geometry import Point, dist, path_length
 from engine.planning import PlanningError
-from engine.robots.base import Robot
 
 if TYPE_CHECKING:
+    from engine.auction_house import AuctionHouse
+    from engine.context import MissionContext
     from engine.field import SiteState
+    from engine.robots.charging import Charging
+    from engine.robots.core import Assignment
+    from engine.robots.mobility import Mobility
+    from engine.robots.recovery import Recovery
 
 
-class TransportAuctioneer(Robot):
+class TransportingRobot(Powered, Protocol):
+    """What the transport desk needs of its excavator: its auction house, the transports of
+    its pile (`ahead`, next mineral first; `waiting_for`, the one for the full bucket)."""
+
+    name: str
+    ctx: MissionContext
+    house: AuctionHouse
+    mobility: Mobility
+    charging: Charging | None
+    recovery: Recovery
+    ahead: list[str]
+    waiting_for: str | None
+
+    @property
+    def state(self) -> str: ...
+    @state.setter
+    def state(self, value: str) -> None: ...
+    def spawn(self, gen: Any) -> None: ...
+
+
+class Transports:
     """What an excavator does as the auctioneer of its minerals' transports."""
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        self._transport_serial = 0
+    def __init__(self, robot: TransportingRobot) -> None:
+        self.robot = robot
+        self.name = robot.name
+        self.ctx = robot.ctx
+        self.env = robot.ctx.env
+        self._serial = 0
+        self._ground_serial = 0
         self._back_at = -math.inf  # radio range: when I last came back from reporting in
 
-    def _transport_id(self, kind: str) -> str:
+    def new_id(self, kind: str) -> str:
         """A task id never used before: `t` for a transport auctioned ahead, `r` for one
         offered again for a full bucket."""
-        self._transport_serial += 1
-        return f"{self.name}#{kind}{self._transport_serial}"
+        self._serial += 1
+        return f"{self.name}#{kind}{self._serial}"
 
-    def _transport_open(self, task_id: str) -> bool:
-        return any(r.task_id == task_id for r in self.house.open_auctions.values())
+    # --- ahead of the bucket (a lead policy) ----------------------------------------------
+    def auction_ahead(self, site: SiteState | Point) -> None:
+        where = site if isinstance(site, tuple) else (site.x, site.y)
+        task_id = self.new_id("t")
+        self.robot.ahead.append(task_id)
+        self.robot.house.open("transport", where, task_id, kind="excavator_hauler")
 
-    def _cancel_transport(self, task_id: str) -> None:
-        for rec in list(self.house.open_auctions.values()):
-            if rec.task_id == task_id:
-                self.house.cancel(rec.id)  # the partner came back before anyone won it
+    def auction_on_the_way(self, a: Assignment) -> None:
+        """Under a transport lead, the first mineral's transport falls due while I drive to the
+        site (a pile holds at least one): auction it then, so a hauler arrives about when I do."""
+        robot = self.robot
+        cfg = self.ctx.scenario
+        dig_s = cfg.timing.dig_s
+        haul_s = dist(a.location, self.ctx.world.plant) / cfg.speeds.hauler
+        lead = self.ctx.policy.transport_lead_s(haul_s, dig_s)
+        if lead <= 0.0 or robot.ahead:
+            return
+        try:
+            drive_s = path_length(self.ctx.planner.plan(robot.pos, a.location)) / robot.speed
+        except PlanningError:
+            return
+        due = drive_s + dig_s - lead
+        if due <= 0.0:
+            self.auction_ahead(a.location)
+        else:
+            robot.spawn(self._auction_when_due(a, due))
+
+    def _auction_when_due(self, a: Assignment, due: float) -> Any:
+        yield self.env.timeout(due)
+        robot = self.robot
+        if robot.current is a and robot.state == "travelling" and not robot.ahead:
+            self.auction_ahead(a.location)
+
+    def drop_ahead(self, early: dict[str, Any]) -> None:
+        """Leaving the pile: transports not yet won are withdrawn (the won ones end void)."""
+        for task_id in self.robot.ahead:
+            self.robot.house.cancel_task(task_id)
+        self.robot.ahead.clear()
+        early.clear()
+
+    # --- minerals on the ground -----------------------------------------------------------
+    def auction_ground_minerals(self) -> None:
+        """Minerals lying where I stand (a failed robot's) get a transport, unless one is known."""
+        here = self.robot.pos
+        for g in list(self.ctx.field.ground):
+            if dist((g.x, g.y), here) > NEAR or self._known_at((g.x, g.y)):
+                continue
+            self._ground_serial += 1
+            self.robot.house.open(
+                "transport",
+                (g.x, g.y),
+                f"{self.name}#g{self._ground_serial}",
+                kind="excavator_hauler",
+            )
+
+    def _known_at(self, p: Point) -> bool:
+        """Is a transport for a mineral lying here already offered or under way? My own pile's
+        transports do not count (they are for what I dig), nor is old news about peers
+        believed: their auctions must be fresh, their winners must still list the task."""
+        robot = self.robot
+        house, recovery = robot.house, robot.recovery
+        pile = {*robot.ahead, robot.waiting_for}
+        board = self.ctx.liveness
+        known = [(r.task_type, r.location) for r in house.open_records() if r.task_id not in pile]
+        known += [(a.task_type, a.location) for a in house.watches() if a.task_id not in pile]
+        for allocs in recovery.peer_alloc.values():
+            for a in allocs.values():
+                hb = board.last_heartbeat(self.name, a.winner)
+                if hb is not None and a.task_id in hb.tasks:
+                    known.append((a.task_type, a.location))
+        known += [
+            (a.task_type, a.location)
+            for peer in recovery.peer_open
+            for a in recovery.peer_open[peer].values()
+            if recovery.peer_handles(a.task_id)
+        ]
+        return any(t == "transport" and dist(loc, p) <= NEAR for t, loc in known)
 
     # --- radio range: a transport nobody hears ---------------------------------------------
     def unheard(self, task_id: str) -> bool:
@@ -48,7 +150,8 @@ class TransportAuctioneer(Robot):
         while I am out of the base station's reach (so, likely, of every idle hauler)?"""
         radio = self.ctx.radio
         assert radio is not None
-        if task_id in self.house.allocations or radio.in_contact(self.name):
+        house = self.robot.house
+        if house.watching(task_id) or radio.in_contact(self.name):
             return False
         proto = self.ctx.scenario.protocol
         now = float(self.env.now)
@@ -56,34 +159,36 @@ class TransportAuctioneer(Robot):
             return False  # just back from reporting in: a hauler may be on its way
         return any(
             r.task_id == task_id and now - r.opened_at > 2 * proto.retry_s
-            for r in self.house.open_auctions.values()
+            for r in house.open_records()
         )
 
     def report_in(self, site: SiteState, task_id: str) -> Any:
         """Drive into the base's reach with the full bucket until a hauler wins the
         transport (or a few retry intervals pass), then back to the site: the winner waits
         for me there."""
+        robot = self.robot
         radio = self.ctx.radio
         assert radio is not None
         self.ctx.observer.emit("reporting_in", robot=self.name, task_id=task_id)
-        spot, back = radio.contact_point(self.pos), (site.x, site.y)
+        spot, back = radio.contact_point(robot.pos), (site.x, site.y)
         energy = self.ctx.energy
         if energy is not None:
-            there_and_back = (dist(self.pos, spot) + dist(spot, back)) * energy.cfg.detour
-            if not energy.can_drive(self, there_and_back, back):
-                yield from self.recharge()  # bucket and all; then report in from the charger
-        self.state = "travelling"
+            there_and_back = (dist(robot.pos, spot) + dist(spot, back)) * energy.cfg.detour
+            if not energy.can_drive(robot, there_and_back, back):
+                assert robot.charging is not None  # (bucket and all; then report in from there)
+                yield from robot.charging.recharge()
+        robot.state = "travelling"
         with contextlib.suppress(PlanningError):
-            yield from self.go_to(spot)
+            yield from robot.mobility.go_to(spot)
         proto = self.ctx.scenario.protocol
         until = float(self.env.now) + 3 * proto.retry_s
-        self.state = "reporting"  # (not "waiting": a partner must not take this for a site)
+        robot.state = "reporting"  # (not "waiting": a partner must not take this for a site)
         while (
-            task_id not in self.house.allocations
-            and self._transport_open(task_id)
+            not robot.house.watching(task_id)
+            and robot.house.is_open(task_id)
             and self.env.now < until
         ):
             yield self.env.timeout(proto.bid_window_s)
-        self.state = "travelling"
-        yield from self.go_to(back)
+        robot.state = "travelling"
+        yield from robot.mobility.go_to(back)
         self._back_at = float(self.env.now)

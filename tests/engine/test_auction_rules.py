@@ -6,11 +6,11 @@ from dataclasses import dataclass
 import pytest
 
 from engine.auction_rules import rank_bids
+from engine.bidding import OpenAuction
 from engine.policies import (
     AnticipatoryCoalitions,
     FirstComeFirstServed,
     NearestFirst,
-    OpenAuction,
     PendingAward,
     RelaxedCoalitions,
     coalition_partner,

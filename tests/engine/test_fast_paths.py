@@ -11,7 +11,7 @@ injected tasks) and buses (ideal, lossy, late):
   (`engine.bidding.refused_all`), and under a policy whose targets come from the auction
   list alone it is not asked again until the list or its bids change (`Bidder._note_quiet`);
 - a robot's auctions in opening order are kept up to date as auctions come and go
-  (`RobotCore.note_auction`, `RobotCore.forget_auction`), not sorted again;
+  (`Bidder.note_auction`, `Bidder.forget_auction`), not sorted again;
 - the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
 - the crater index looks only at the buckets a segment passes through (`CraterIndex`).
 """
@@ -30,11 +30,12 @@ from hypothesis import strategies as st
 
 import engine.robots.bidder
 from engine import POLICIES, Mission
+from engine.bidding import OpenAuction
 from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
 from engine.liveness import Liveness
-from engine.policies import FirstComeFirstServed, OpenAuction, check_policy
-from engine.robots.core import RobotCore
+from engine.policies import FirstComeFirstServed, check_policy
+from engine.robots.bidder import Bidder
 from engine.scenario import Crater
 from engine.world import CLEARANCE, CraterIndex
 from tests.engine.factories import play_actions, small_scenario
@@ -45,13 +46,13 @@ def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> 
     return [n for i, n in enumerate(self.names) if i != r and self.heard[r, i] < now - timeout]
 
 
-def _plain_note(self: RobotCore, info: OpenAuction) -> None:
+def _plain_note(self: Bidder, info: OpenAuction) -> None:
     self.open_auctions[info.auction_id] = info
     self._in_order = None
 
 
-def _plain_forget(self: RobotCore, auction_id: str) -> OpenAuction | None:
-    self.rounds.pop(auction_id, None)
+def _plain_forget(self: Bidder, auction_id: str) -> OpenAuction | None:
+    self.robot.rounds.pop(auction_id, None)
     info = self.open_auctions.pop(auction_id, None)
     if info is not None:
         self._in_order = None
@@ -101,8 +102,8 @@ def test_shortcuts_change_nothing(seed, policy, bus, busy_bid, actions):
         mp.setattr(engine.robots.bidder, "refused_all", lambda sent, targets: False)
         mp.setattr(Liveness, "silent", _brute_silent)
         mp.setattr(engine.robots.bidder.Bidder, "_note_quiet", lambda self, auctions, policy: None)
-        mp.setattr(RobotCore, "note_auction", _plain_note)
-        mp.setattr(RobotCore, "forget_auction", _plain_forget)
+        mp.setattr(Bidder, "note_auction", _plain_note)
+        mp.setattr(Bidder, "forget_auction", _plain_forget)
         plain = _play(scenario, seed, policy, plan)
     assert fast == plain
 

@@ -53,7 +53,7 @@ def test_a_scout_back_before_anyone_noticed_resumes_its_auctions() -> None:
     settled = [e for e in events_of(m, "duties_settled") if e["robot"] == "scout-2"]
     assert settled[-1]["resumed"] >= 1 and settled[-1]["handed_over"] == 0
     stranded = [a for a in m.auctions if a.status == "open" and a.auctioneer == "scout-2"]
-    assert all(a.id in m.ctx.robots["scout-2"].house.open_auctions for a in stranded)
+    assert all(m.ctx.robots["scout-2"].house.has_open(a.id) for a in stranded)
 
 
 def test_a_recorded_live_chaos_session_completes() -> None:

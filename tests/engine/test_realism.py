@@ -125,7 +125,7 @@ def test_a_robot_that_runs_dry_is_recovered_like_a_failed_one():
     assert carrier.battery is not None
     carrier.battery.settle(m.now)
     carrier.battery.level = 0.5  # a leak: it has half a kJ left, not enough to get home
-    carrier.energy_changed()
+    carrier.motion_changed()
     out = m.run()
     watch.final()
     assert dry == [carrier.name] and not carrier.alive
