@@ -29,6 +29,7 @@ from engine.errors import CommandRejected
 from engine.policies import POLICIES
 from engine.scenario import ROBOT_TYPES, reference_scenario
 from field.control import FieldMission
+from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import Progress
 
@@ -252,7 +253,11 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
     rng = random.Random(seed)
     decentralized = sorted(n for n, p in POLICIES.items() if p.decentralized)
     with one_field_mission_at_a_time():
-        m = FieldMission(reference_scenario(), seed, rng.choice(decentralized), SPEED, stall)
+        speed = paced(SPEED)
+        if stall is not None and speed < SPEED:  # the same starvation in mission time
+            for_s, every_s = (float(x) * SPEED / speed for x in stall.split("@"))
+            stall = f"{for_s:g}@{every_s:g}"
+        m = FieldMission(reference_scenario(), seed, rng.choice(decentralized), speed, stall)
         chaos = Chaos(m, rng, seed)
         holders = OneHolder(m, seed)
         chaos.note(f"policy {m.policy}")
@@ -265,7 +270,11 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
                 status = m.fleet.world.status()
                 if time.monotonic() - shown > 15.0:  # how it goes, shown with a failure
                     shown = time.monotonic()
-                    chaos.note(f"status { {k: status[k] for k in WORK} }")
+                    world = m.fleet.world
+                    chaos.note(
+                        f"status { {k: status[k] for k in WORK} }, world queries "
+                        f"{world.queries} ({world.link.late} late), dropped {m.rejections()}"
+                    )
                 watch.check(_work(status), lambda: _stuck(m, seed))
                 m.advance(m.now)
                 _conserved(m, seed)
