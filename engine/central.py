@@ -30,8 +30,7 @@ from engine.planning import PlanningError
 
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord
-    from engine.global_view import GlobalView
-    from engine.robots.base import Robot
+    from engine.global_view import GlobalView, RobotState
 
 FORBIDDEN = 1e12
 """Cost of a pairing the oracle must not choose (declined, or no path)."""
@@ -109,7 +108,7 @@ def assign_greedily(
     return [] if chosen is None else [robots[chosen].name]
 
 
-def travel_s(ctx: GlobalView, robot: Robot, goal: tuple[float, float]) -> float:
+def travel_s(ctx: GlobalView, robot: RobotState, goal: tuple[float, float]) -> float:
     """Time to drive from the robot's true position to the goal along the planned path."""
     try:
         length = path_length(ctx.planner.plan(robot.mobility.position()[0], goal))

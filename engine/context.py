@@ -10,12 +10,14 @@ auction records, counters) is bookkeeping for the researcher; no robot decision 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence, Set
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import simpy
 
 from engine.auction_rules import AuctionRecord
+from engine.energy import Located, Powered
 from engine.field import Field
+from engine.global_view import HeldTask, RobotState, Whereabouts
 from engine.liveness import Liveness
 from engine.messages import Location, Message, TaskType
 from engine.observer import Observer
@@ -28,10 +30,58 @@ if TYPE_CHECKING:
     from engine.bus import EmbeddedBus
     from engine.durations import Durations
     from engine.energy import EnergyModel
+    from engine.geometry import Point
     from engine.plant import Plant
     from engine.policies import Policy
-    from engine.radio import RadioNet
-    from engine.robots.base import Robot
+
+
+class Moving(Protocol):
+    """A robot's drive under way (`engine.robots.mobility.Motion`)."""
+
+    @property
+    def speed(self) -> float: ...
+
+
+class Body(RobotState, Powered, Protocol):
+    """A robot as the mission holds it (`engine.robots.base.Robot`): what the baselines
+    (`GlobalView`), the energy model, the radio, the metrics and the robots beside it read
+    of it. The context names no robot class, so the robots sit above it."""
+
+    rtype: str
+    alive: bool
+
+    @property
+    def speed(self) -> float: ...
+    @property
+    def motion(self) -> Moving | None: ...
+    @property
+    def current(self) -> HeldTask | None: ...
+    @property
+    def mobility(self) -> Whereabouts: ...
+    @property
+    def distance(self) -> float: ...
+    def state_times(self) -> dict[str, float]: ...
+    def wake(self) -> None: ...
+
+
+class Believer(Protocol):
+    """What the radio reads of a robot to judge a silent peer (`engine.robots.base.Robot`)."""
+
+    name: str
+
+    @property
+    def down(self) -> Set[str]: ...
+    @property
+    def mobility(self) -> Located: ...
+
+
+class RadioRange(Protocol):
+    """Radio range as the robots and the metrics read it (`engine.radio.RadioNet`)."""
+
+    def in_contact(self, name: str) -> bool: ...
+    def contact_point(self, p: Point) -> Point: ...
+    def presumed_out_of_reach(self, robot: Believer, peer: str, now: float) -> bool: ...
+    def metrics(self) -> dict[str, Any]: ...
 
 
 class MissionContext:
@@ -53,13 +103,13 @@ class MissionContext:
         self.observer = Observer(lambda: float(env.now))
         self.bus: EmbeddedBus  # set by the mission once the bus exists
         self.liveness = Liveness()
-        self.robots: dict[str, Robot] = {}
+        self.robots: dict[str, Body] = {}
         self.field = Field(world, env, self.observer)
         # the realism options (docs/model.md): None while off, so the reference model pays nothing
         self.durations: Durations | None = None
         self.docks: Plant | None = None
         self.energy: EnergyModel | None = None
-        self.radio: RadioNet | None = None
+        self.radio: RadioRange | None = None
 
     # --- what an auctioneer needs (engine.auction_house.AuctionPorts) ----------------------
     @property

@@ -61,6 +61,7 @@ class Mission(MissionViews):
         chosen = make_planner(planner, self.world, plan_rng)
         self.env = simpy.Environment()
         self.ctx = ctx = MissionContext(scenario, self.world, chosen, self.env)
+        self.robots: dict[str, Robot] = {}  # the robots of ctx.robots, as their own classes
         ctx.policy = self._make_policy(self.initial_policy)
         install_realism(ctx, work_rng)
         ctx.bus = make_bus(ctx, bus_rng)
@@ -122,7 +123,7 @@ class Mission(MissionViews):
             robot = Scout(name, self.ctx, pos, speed, self.routes)
         else:
             robot = _CLASSES[rtype](name, self.ctx, pos, speed)
-        self.ctx.robots[name] = robot
+        self.robots[name] = self.ctx.robots[name] = robot
         return robot
 
     # --- driving ------------------------------------------------------------------------
@@ -230,7 +231,7 @@ class Mission(MissionViews):
             raise CommandRejected(f"mission has ended ({self.status})")
 
     def robot(self, name: str) -> Robot:
-        r = self.ctx.robots.get(name)
+        r = self.robots.get(name)
         if r is None or r.rtype == "operator":
             raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
         return r

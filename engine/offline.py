@@ -38,8 +38,7 @@ from engine.schedule import Job, Problem, Schedule, Unit, optimize
 
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord
-    from engine.global_view import GlobalView
-    from engine.robots.base import Robot
+    from engine.global_view import GlobalView, RobotState
 
 PATIENCE_S = 300.0
 """A planned task not handed out this long after its planned time leaves the plan."""
@@ -264,7 +263,7 @@ def build_problem(ctx: GlobalView) -> Problem:
         seen = s.found_at if s.found_at is not None else found.get(s.id, latest)
         jobs.append(Job(s.id, (s.x, s.y), s.remaining, max(now, seen) + cfg.protocol.bid_window_s))
 
-    def unit(r: Robot) -> Unit:
+    def unit(r: RobotState) -> Unit:
         assert r.bidder is not None
         wait, pos = r.bidder.free_at()
         return Unit(r.name, pos, now + wait)

@@ -15,8 +15,7 @@ peer would be out of reach, it is presumed out of range, not failed, and gets
 
 from __future__ import annotations
 
-from collections.abc import Set
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,7 +26,7 @@ from engine.messages import Heartbeat, Message
 from engine.realism import Radio
 
 if TYPE_CHECKING:
-    from engine.context import MissionContext
+    from engine.context import Believer, MissionContext
 
 BASE = "operator"
 """The base station's node: the operator's console stands at the plant."""
@@ -43,21 +42,6 @@ def hop_reach(link: np.ndarray, hops: int) -> np.ndarray:
             break
         reach = grown
     return reach
-
-
-class Located(Protocol):
-    def position(self, t: float | None = None) -> tuple[Point, float]: ...
-
-
-class Believer(Protocol):
-    """What the radio reads of a robot to judge a silent peer (`engine.robots.base.Robot`)."""
-
-    name: str
-
-    @property
-    def down(self) -> Set[str]: ...
-    @property
-    def mobility(self) -> Located: ...
 
 
 class RadioNet:

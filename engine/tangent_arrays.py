@@ -18,7 +18,7 @@ from engine.geometry import Point
 from engine.rims import ARC_STEP
 
 if TYPE_CHECKING:
-    from engine.tangent_planner import TangentGraph
+    from engine.tangent_query import TangentGraph
 
 Ints = npt.NDArray[np.int64]
 Floats = npt.NDArray[np.float64]

@@ -31,7 +31,7 @@ from engine.rims import Arc, arc_length
 from engine.tangent_arrays import TAU, FlatGraph, Floats, Ints, StartFan, arc_lengths
 
 if TYPE_CHECKING:
-    from engine.tangent_planner import Leg, TangentGraph
+    from engine.tangent_query import Leg, TangentGraph
 
 _FEED = 4
 """Start tangents whose segments are tested together (the first is most often the one)."""

@@ -45,7 +45,7 @@ from engine.rims import COS_HALF, Arc, Rim, arc_length, bitangents
 from engine.segment_grid import SegmentGrid, grid_step
 from engine.tangent_arrays import FlatGraph, StartFan
 from engine.tangent_field import GoalField
-from engine.tangent_query import Query
+from engine.tangent_query import Edge, Leg, Query
 from engine.world import CLEARANCE, World
 
 _FIELDS = 32
@@ -63,8 +63,6 @@ index's strict `distance > radius` test despite rounding."""
 
 T = TypeVar("T")
 XYR = tuple[float, float, float]
-Leg = Path | Arc
-Edge = tuple[int, float, Leg]  # (to node, cost, the leg driven from the edge's start)
 
 
 class TangentGraph:

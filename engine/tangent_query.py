@@ -9,15 +9,67 @@ from __future__ import annotations
 
 import heapq
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from engine.geometry import Point, dist
+from engine.planning import Path
+from engine.rims import Arc, Rim
+from engine.segment_grid import SegmentGrid
+from engine.world import World
 
-if TYPE_CHECKING:
-    from engine.tangent_planner import Edge, Leg, TangentGraph
+Leg = Path | Arc
+Edge = tuple[int, float, Leg]  # (to node, cost, the leg driven from the edge's start)
+
+
+class TangentGraph(Protocol):
+    """What a query, a goal's field and the flat arrays read of the world's tangent graph
+    (`engine.tangent_planner.TangentGraph`, which grows as rims are opened)."""
+
+    @property
+    def rims(self) -> list[Rim]: ...
+    @property
+    def points(self) -> list[Point]: ...
+    @property
+    def adj(self) -> list[list[Edge]]: ...
+    @property
+    def rim_of(self) -> list[int]: ...
+    @property
+    def rings(self) -> list[list[tuple[float, int]] | None]: ...
+    @property
+    def _world(self) -> World: ...
+    @property
+    def _grid(self) -> SegmentGrid: ...
+    @property
+    def _rim_x(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def _rim_y(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def _rim_r(self) -> npt.NDArray[np.float64]: ...
+
+    def ring(self, i: int) -> list[tuple[float, int]]: ...
+    def tangents(self, p: Point) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...
+    def free_from(self, p: Point, ends: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]: ...
+    def _angle(self, rim: int, p: Point) -> float: ...
+    def _arc_free(self, rim: int, arc: Arc) -> bool: ...
+    def _link_temps(
+        self,
+        extra: dict[int, list[Edge]],
+        rim: int,
+        temps: list[tuple[float, int]],
+        where: Callable[[int], Point],
+    ) -> None: ...
+    @staticmethod
+    def _link(
+        adj: list[list[Edge]] | dict[int, list[Edge]],
+        a: int,
+        b: int,
+        leg: Leg,
+        cost: float,
+    ) -> None: ...
 
 
 _SOURCE, _TARGET = -1, -2

@@ -20,6 +20,7 @@ class MissionViews:
 
     if TYPE_CHECKING:
         ctx: MissionContext
+        robots: dict[str, Robot]
         world: World
         scenario: Scenario
         seed: int
@@ -65,7 +66,7 @@ class MissionViews:
         return d
 
     def _robots(self) -> Iterable[Robot]:
-        return (r for r in self.ctx.robots.values() if r.rtype != "operator")
+        return (r for r in self.robots.values() if r.rtype != "operator")
 
     def counters(self) -> dict[str, int]:
         ctx = self.ctx
