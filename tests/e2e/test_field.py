@@ -16,6 +16,7 @@ from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog, Server
 from tests.e2e.test_dashboard import WORK, Start, free_point, open_live, wait_for
+from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import STALL_S
 
@@ -31,7 +32,7 @@ def test_field_mission_on_the_dashboard(
 def _field_mission_on_the_dashboard(
     page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
 ) -> None:
-    mission = start_mission(policy="nearest", seed=0, speed=50, field=True)
+    mission = start_mission(policy="nearest", seed=0, speed=paced(50.0), field=True)
     mid = mission["id"]
     open_live(page, mid)
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")

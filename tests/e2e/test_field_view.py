@@ -17,6 +17,7 @@ from playwright.sync_api import Page, expect
 from tests.e2e.conftest import ConsoleLog
 from tests.e2e.test_compare_groups import FOUR, finish
 from tests.e2e.test_dashboard import Start, open_live, wait_for
+from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 
 STUCK_S = 90  # wall seconds without a new delivery before the mission counts as stuck
@@ -54,7 +55,7 @@ def test_field_mission_feed_timeline_and_distances(
 
 
 def _field_view(page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client) -> None:
-    mission = start_mission(policy="nearest", seed=0, speed=50, field=True)
+    mission = start_mission(policy="nearest", seed=0, speed=paced(50.0), field=True)
     mid = mission["id"]
     open_live(page, mid)
     # no playback of a field run: the timeline is off and says why, and a click does nothing

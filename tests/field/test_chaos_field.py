@@ -241,12 +241,6 @@ def _records_sound(m: FieldMission, seed: int) -> None:
 
 @pytest.mark.slow
 @pytest.mark.fleet
-@pytest.mark.xfail(
-    strict=False,
-    reason="known defect, open: since field frames are signed and the world service checks "
-    "each request, a chaos run sometimes stalls with excavators waiting on minerals no "
-    "hauler comes for (seeds 101 and 303 here, not every run); see the closing note",
-)
 @pytest.mark.parametrize(("seed", "stall"), CASES)
 def test_field_mission_under_random_operator_actions(seed: int, stall: str | None) -> None:
     print(f"field chaos seed {seed}, stalls {stall} (REGOLITH_FIELD_CHAOS_SEEDS={seed} repeats it)")

@@ -15,6 +15,7 @@ import pytest
 
 from engine.scenario import reference_scenario
 from field.fleet import Fleet
+from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import Progress
 
@@ -31,7 +32,7 @@ def fleet() -> Iterator[Fleet]:
 
 
 def _fleet() -> Iterator[Fleet]:
-    f = Fleet(reference_scenario(), 0, "nearest", SPEED)
+    f = Fleet(reference_scenario(), 0, "nearest", paced(SPEED))
     try:
         yield f
     finally:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -34,7 +35,8 @@ haulers = 1
 def test_fleet_run_prints_a_summary_and_shows_progress_on_a_terminal(tmp_path: Path) -> None:
     (tmp_path / "tiny.toml").write_text(TINY)
     cmd = [sys.executable, "-c", "from app.cli import main; main()", "fleet", "run"]
-    cmd += ["--policy", "nearest", "--speed", "100", "--scenario", str(tmp_path / "tiny.toml")]
+    speed = f"{paced(100.0):g}"
+    cmd += ["--policy", "nearest", "--speed", speed, "--scenario", str(tmp_path / "tiny.toml")]
     main, tty = pty.openpty()
     try:
         with one_field_mission_at_a_time():

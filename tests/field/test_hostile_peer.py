@@ -23,6 +23,7 @@ import httpx
 import pytest
 
 from tests.api.conftest import LiveServer, all_pages, make_settings
+from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import REQUEST_S, wait_progress
 
@@ -101,7 +102,8 @@ def _attacked(live: LiveServer, tmp_path: Path) -> None:
     with live.client() as api:
         other = api.post("/api/missions", json={"seed": 5, "speed": 5}).json()["id"]
         res = api.post(
-            "/api/missions", json={"policy": "nearest", "seed": 0, "speed": 50, "field": True}
+            "/api/missions",
+            json={"policy": "nearest", "seed": 0, "speed": paced(50.0), "field": True},
         )
         assert res.status_code == 201, res.text
         mid = res.json()["id"]
