@@ -38,11 +38,6 @@ from field.wire import (
 from field.world_service import WorldService
 
 """The scenario's realism options (docs/model.md); field mode runs none of them."""
-AGENT_NICENESS = 5
-"""Agents run at a lower CPU priority than mission control: its world service answers every
-agent, so when the machine is short of CPU a starved world service stalls the whole team
-(under two CPU hogs it fell seconds behind, every ask timed out and was asked again, and
-chaos runs stopped), while a starved agent only slows its own robot."""
 INJECT_WAIT_S = 10.0
 """How long (wall) mission control waits for the operator's console to take a task."""
 
@@ -156,9 +151,6 @@ class Fleet:
             stdout=subprocess.DEVNULL,
             stderr=None,
         )
-        with contextlib.suppress(OSError):  # (before it starts its threads: they inherit it)
-            mine = os.getpriority(os.PRIO_PROCESS, 0)
-            os.setpriority(os.PRIO_PROCESS, popen.pid, min(19, mine + AGENT_NICENESS))
         assert popen.stdin is not None
         with contextlib.suppress(BrokenPipeError):
             popen.stdin.write(cred.to_json().encode() + b"\n")
