@@ -42,6 +42,9 @@ SPEED = 100.0
 CHAOS_UNTIL_S = 1200.0  # mission time of random actions; then every killed robot restarts
 #: What a field mission's progress is (tests/progress.py: a loaded machine slows it, so the
 #: test waits while any of these moves, not for a fixed time; ~35 s when the machine is idle).
+GIVE_UP_S = 12_000.0
+"""Mission time past which a run is stuck, whatever still moves (a finished chaos run ends
+by ~5,000 s; a stalled one crawled for 10 wall minutes of CI before its progress check)."""
 WORK = ("delivered", "sites_found", "scanned", "ground", "aboard")
 
 
@@ -278,6 +281,7 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
                         f"{world.queries} ({world.link.late} late), dropped {m.rejections()}"
                     )
                 watch.check(_work(status), lambda: _stuck(m, seed))
+                assert m.now < GIVE_UP_S, _stuck(m, seed)
                 m.advance(m.now)
                 _conserved(m, seed)
                 holders.check()
