@@ -233,7 +233,8 @@ class Agent:
     def _on_body(self, query: Any) -> None:
         """Another robot looks at this one, or acts on it (Zenoh's thread). Only a member
         of the mission is answered, and a call only from the robot it names as the caller."""
-        got = self.link.take_query(query, body_key(self.mission, self.name))
+        key = body_key(self.mission, self.name)
+        got = self.link.take_query(query, key)
         if got is None:
             return
         opened, req = got
@@ -242,7 +243,7 @@ class Agent:
             not isinstance(caller, dict) or caller.get("name") != opened.sender
         ):
             refused = {"ok": False, "error": "caller: not the signer"}
-            self.link.reply(query, body_key(self.mission, self.name), req, refused)
+            self.link.reply(query, key, req, refused)
             return
         if isinstance(caller, dict):
             caller["rtype"] = opened.cert.role  # what it is, not what it says it is
@@ -255,7 +256,7 @@ class Agent:
             finally:
                 self.lock.release()
             self.bus.inbox.ready.set()  # the clock loop: what the call triggered is due now
-        self.link.reply(query, body_key(self.mission, self.name), req, reply)
+        self.link.reply(query, key, req, reply)
 
     def _serve_body(self, req: dict[str, Any], frame: bytes) -> dict[str, Any]:
         reply = serve_body(self, self.robot, self.ctx.robots, req, frame)
