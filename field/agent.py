@@ -27,6 +27,7 @@ from engine.mission import make_planner
 from engine.policies import POLICIES, PolicyContext, make_policy
 from engine.scenario import Scenario
 from engine.world import generate_world
+from field.drain import Drain
 from field.link import Link
 from field.remote import PeerBody, RemoteField, look, serve_body
 from field.robot import FieldContext, make_robot
@@ -151,10 +152,14 @@ class Agent:
         ctx.liveness.introduce_all(self.env.now)
         roster[name] = rtype
         robot.peers = roster
-        self._body = self.session.declare_queryable(body_key(mission, name), self._on_body)
-        self._commands = self.session.declare_subscriber(command_key(mission), self._on_command)
+        self._body = Drain(
+            self.session.declare_queryable, body_key(mission, name), self._on_body, "body"
+        )
+        self._commands = Drain(
+            self.session.declare_subscriber, command_key(mission), self._on_command, "commands"
+        )
         self._tasks = (
-            self.session.declare_queryable(operator_key(mission), self._on_task)
+            Drain(self.session.declare_queryable, operator_key(mission), self._on_task, "tasks")
             if rtype == "operator"
             else None
         )
@@ -369,8 +374,12 @@ class Agent:
 
     def run(self) -> None:
         self._loop_thread = threading.get_ident()
-        self._presence = self.session.liveliness().declare_subscriber(
-            presence_key(self.mission), self._on_presence, history=True
+        self._presence = Drain(
+            self.session.liveliness().declare_subscriber,
+            presence_key(self.mission),
+            self._on_presence,
+            "presence",
+            history=True,
         )
         self._watch_absence()  # until its token is heard: gone already, no DELETE would come
         env, clock, bus = self.env, self.clock, self.bus

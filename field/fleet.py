@@ -23,6 +23,7 @@ from typing import Any
 
 from engine.robots import OPERATOR
 from engine.scenario import REALISM_OPTIONS, ROBOT_TYPES, Scenario
+from field.drain import Drain
 from field.intake import Recorder
 from field.link import Link
 from field.transport import Stalls, open_session
@@ -87,11 +88,18 @@ class Fleet:
         self.link = Link(self.session, self.authority.control, f"mission {self.mission}")
         self.recorder = Recorder(self.link)
         self._subs = [
-            self.session.declare_subscriber(
-                messages_selector(self.mission), self.recorder.on_message
+            Drain(
+                self.session.declare_subscriber,
+                messages_selector(self.mission),
+                self.recorder.on_message,
+                "recorder messages",
             ),
-            self.session.declare_subscriber(
-                f"{PREFIX}/{self.mission}/event/*", self.recorder.on_report
+            Drain(  # events and auction records: none may be lost
+                self.session.declare_subscriber,
+                f"{PREFIX}/{self.mission}/event/*",
+                self.recorder.on_report,
+                "recorder reports",
+                lossless=True,
             ),
         ]
         self.world = WorldService(
@@ -256,8 +264,7 @@ class Fleet:
                     os.killpg(proc.popen.pid, signal.SIGKILL)
                 proc.popen.wait()
         for sub in self._subs:
-            with contextlib.suppress(Exception):
-                sub.undeclare()  # type: ignore[no-untyped-call]
+            sub.undeclare()
         self.world.close()
         with contextlib.suppress(Exception):
             self.session.close()  # type: ignore[no-untyped-call]

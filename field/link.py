@@ -68,6 +68,10 @@ class Link:
             timeout=timeout,
             target=zenoh.QueryTarget.ALL,
             consolidation=zenoh.ConsolidationMode.NONE,
+            # droppable, the query and its replies (they share its QoS): a reply to an
+            # asker that reads nothing would hold the answerer's network thread for up to
+            # five seconds a time, and every other link it reads; a dropped one is asked again
+            congestion_control=zenoh.CongestionControl.DROP,
         )
         for reply in replies:
             if reply.ok is None:

@@ -8,7 +8,6 @@ thread-safe; Zenoh calls back on its own threads).
 
 from __future__ import annotations
 
-import contextlib
 import heapq
 import itertools
 import json
@@ -35,6 +34,7 @@ from engine.messages import (
     Message,
     PolicyChange,
 )
+from field.drain import Drain
 from field.link import Link
 from field.trust import Rejected
 from field.wire import decode, encode, messages_selector
@@ -215,8 +215,11 @@ class ZenohBus:
         self.published = 0
         self.received = 0
         self.lost = 0  # by the injector; the network's own losses are not seen
-        self._sub = self._session.declare_subscriber(
-            messages_selector(self._mission), self._on_sample
+        self._sub = Drain(
+            self._session.declare_subscriber,
+            messages_selector(self._mission),
+            self._on_sample,
+            "bus",
         )
 
     # --- the engine's Bus interface ------------------------------------------------------
@@ -289,5 +292,4 @@ class ZenohBus:
             self._handler(msg)
 
     def close(self) -> None:
-        with contextlib.suppress(Exception):  # the session may be gone already
-            self._sub.undeclare()  # type: ignore[no-untyped-call]
+        self._sub.undeclare()

@@ -28,6 +28,7 @@ from engine.policies import resolve_policy
 from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.world import World, generate_world
+from field.drain import Drain
 from field.link import Link
 from field.trust import Certificate, Rejected, Rejections
 from field.wire import event_key, presence_key, world_key
@@ -137,7 +138,9 @@ class WorldService:
         self._on_event = on_event
         self._events_pub = session.declare_publisher(event_key(mission, "world"))
         self.observer.log.subscribe(self._publish_event)
-        self._queryable = session.declare_queryable(world_key(mission), self._on_query)
+        self._queryable = Drain(
+            session.declare_queryable, world_key(mission), self._on_query, "world service"
+        )
         self._presence = session.liveliness().declare_token(presence_key(mission))
 
     def _publish_event(self, ev: Any) -> None:
@@ -373,6 +376,7 @@ class WorldService:
         }
 
     def close(self) -> None:
-        for decl in (self._presence, self._queryable, self._events_pub):
+        self._queryable.undeclare()
+        for decl in (self._presence, self._events_pub):
             with contextlib.suppress(Exception):  # the session may be gone already
                 decl.undeclare()  # type: ignore[no-untyped-call]

@@ -1,0 +1,73 @@
+"""Subscribers and queryables whose network threads never wait for Python.
+
+A Python callback handed to Zenoh runs on a thread of zenoh-python's, fed through a bounded
+channel; when the callback falls behind, the channel fills and Zenoh's network thread waits
+on it, and that thread is the one that reads every other link of the session too. A callback
+falls behind easily: it needs the GIL, which an agent's clock loop holds most of the time at
+100x. Seen in field chaos runs: mission control's two network threads parked on its
+recorder's full channel, every socket's receive queue full, the agents' puts and queries
+waiting on mission control, the world service unasked, and the whole mission stalled for
+good, with every process idle.
+
+So each subscriber and queryable of field mode is declared with a ring channel, which never
+makes a network thread wait (when full, its oldest item goes, as on a lossy bus: the protocol
+re-sends, an asker asks again), and is drained by a thread of ours. What must not be lost (an
+agent's reports) gets a deep FIFO channel instead, which waits only once that is full.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import zenoh
+
+log = logging.getLogger("regolith.field.drain")
+
+#: Items waiting for the draining thread before the oldest go (a ring) or the network
+#: thread waits (a FIFO): a few seconds of a mission's traffic at 100x.
+RING = 4096
+FIFO = 65_536
+
+
+class Drain:
+    """`declare(key, channel, **options)` (a session's `declare_subscriber` or
+    `declare_queryable`, or a liveliness one), with `work` called on every item it takes
+    in, one at a time, on a thread of its own. `undeclare` ends the thread."""
+
+    def __init__(
+        self,
+        declare: Callable[..., Any],
+        key: str,
+        work: Callable[[Any], None],
+        name: str,
+        lossless: bool = False,
+        **options: Any,
+    ) -> None:
+        channel = zenoh.handlers.FifoChannel(FIFO) if lossless else zenoh.handlers.RingChannel(RING)
+        self.declared = declare(key, channel, **options)
+        self._handler = self.declared.handler
+        self._work = work
+        self._thread = threading.Thread(target=self._run, name=f"drain {name}", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            try:
+                item = self._handler.recv()
+            except Exception:  # the channel is closed: undeclared, or the session ended
+                return
+            try:
+                self._work(item)
+            except Exception:
+                log.exception("%s: an item could not be handled", self._thread.name)
+            # let it go before waiting for the next: a query is answered as done (its asker
+            # stops waiting) only once its object is gone
+            del item
+
+    def undeclare(self) -> None:
+        with contextlib.suppress(Exception):  # the session may be gone already
+            self.declared.undeclare()
