@@ -283,7 +283,9 @@ class Opener:
         self._keys: dict[bytes, Ed25519PublicKey] = {}
         self._bad: set[bytes] = set()  # certificates that failed: a flood of one costs a lookup
         self._newest: dict[str, int] = {}
-        self._seen: dict[tuple[str, int], tuple[int, set[int]]] = {}
+        # by sender, generation and channel: a process takes its channels in on threads of
+        # their own (`field.drain`), each in order but at its own lag behind the others
+        self._seen: dict[tuple[str, int, str], tuple[int, set[int]]] = {}
         self._lock = threading.Lock()
         self.rejections = Rejections(where)
 
@@ -319,7 +321,7 @@ class Opener:
             key.verify(sig, _signed_text(channel, seq, raw_cert, body))
         except InvalidSignature:
             raise Rejected("forged", who, f"bad signature on {channel}") from None
-        self._fresh(cert, seq)
+        self._fresh(cert, seq, channel)
         if nesting_depth(body) > MAX_DEPTH:
             raise Rejected("too deep", who, f"nesting over {MAX_DEPTH}")
         return Opened(cert, seq, body)
@@ -357,15 +359,16 @@ class Opener:
             self._certs[raw], self._keys[raw] = cert, key
         return cert, key
 
-    def _fresh(self, cert: Certificate, seq: int) -> None:
-        """A sequence number this process has not seen from that sender's generation, and
-        not older than the window: a recorded frame sent again is dropped."""
+    def _fresh(self, cert: Certificate, seq: int, channel: str) -> None:
+        """A sequence number this process has not seen from that sender's generation on that
+        channel, and not older than the window there: a recorded frame sent again is dropped
+        (sent on another channel, its signature fails: the channel is signed)."""
         with self._lock:
             if cert.gen > self._newest.get(cert.name, 0):
                 self._newest[cert.name] = cert.gen
                 for k in [k for k in self._seen if k[0] == cert.name]:
                     del self._seen[k]
-            top, seen = self._seen.get((cert.name, cert.gen), (-1, set()))
+            top, seen = self._seen.get((cert.name, cert.gen, channel), (-1, set()))
             if seq in seen or seq <= top - REPLAY_WINDOW:
                 raise Rejected("replayed", cert.name, f"sequence {seq}")
             seen.add(seq)
@@ -373,4 +376,4 @@ class Opener:
                 top = seq
                 if len(seen) > 2 * REPLAY_WINDOW:
                     seen = {s for s in seen if s > top - REPLAY_WINDOW}
-            self._seen[(cert.name, cert.gen)] = (top, seen)
+            self._seen[(cert.name, cert.gen, channel)] = (top, seen)

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from field.trust import (
     MAX_DEPTH,
     MAX_FRAME,
+    REPLAY_WINDOW,
     Authority,
     Credential,
     Opener,
@@ -87,6 +88,27 @@ def test_frames_out_of_order_open_once_each(authority: Authority) -> None:
     for f in reversed(frames):
         opener.open(KEY, f)
     assert all(_reason(opener, KEY, f) == "replayed" for f in frames)
+
+
+def test_a_channel_taken_in_far_behind_another_still_opens(authority: Authority) -> None:
+    """A process takes each channel in on a thread of its own (field/drain.py): one of them
+    may be thousands of a sender's frames behind another, and nothing in it is a replay."""
+    sealer, opener = Sealer(authority.issue("excavator-1", "excavator")), _opener(authority)
+    world, bus = "regolith/m1/world", "regolith/m1/msg/heartbeat/excavator-1"
+    late = [sealer.seal(bus, b"{}") for _ in range(10)]
+    for _ in range(3 * REPLAY_WINDOW):
+        opener.open(world, sealer.seal(world, b"{}"))
+    for f in late:
+        opener.open(bus, f)
+    assert all(_reason(opener, bus, f) == "replayed" for f in late)
+
+
+def test_a_frame_older_than_its_channels_window_is_refused(authority: Authority) -> None:
+    sealer, opener = Sealer(authority.issue("hauler-1", "hauler")), _opener(authority)
+    early = sealer.seal(KEY, b"{}")
+    for _ in range(REPLAY_WINDOW):
+        opener.open(KEY, sealer.seal(KEY, b"{}"))
+    assert _reason(opener, KEY, early) == "replayed"
 
 
 def test_a_credential_travels_as_json(authority: Authority) -> None:
