@@ -47,7 +47,9 @@ class Drain:
         lossless: bool = False,
         **options: Any,
     ) -> None:
-        channel = zenoh.handlers.FifoChannel(FIFO) if lossless else zenoh.handlers.RingChannel(RING)
+        channel: Any = (
+            zenoh.handlers.FifoChannel(FIFO) if lossless else zenoh.handlers.RingChannel(RING)
+        )
         self.declared = declare(key, channel, **options)
         self._handler = self.declared.handler
         self._work = work
