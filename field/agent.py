@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 import simpy
-import zenoh
 
 from engine.messages import Heartbeat, Hello, Message
 from engine.mission import make_planner
@@ -40,7 +39,6 @@ from field.wire import (
     decode_inject,
     event_key,
     operator_key,
-    presence_key,
     world_key,
 )
 from field.world_service import MissionClock
@@ -98,8 +96,7 @@ class Agent:
         self._loop_thread: int | None = None
         self._ids = itertools.count(1)
         self.stopped = threading.Event()
-        self._absent_since: float | None = None  # monotonic; None while mission control is here
-        self._absence_lock = threading.Lock()
+        self._control_heard = time.monotonic()  # the last signed word from mission control
         self.stalls = stalls
         self.session = open_session(listen=listen, connect=connect)
         self.link = Link(self.session, credential, f"agent {name}")
@@ -176,7 +173,10 @@ class Agent:
             self._loop_holds = False
             self.lock.release()
         try:
-            return self.link.ask(key, req, expect, QUERY_TIMEOUT_S)
+            rep = self.link.ask(key, req, expect, QUERY_TIMEOUT_S)
+            if rep is not None and expect == CONTROL:
+                self._control_heard = time.monotonic()
+            return rep
         except Exception:  # the session closed under a robot still running at shutdown
             if not self.stopped.is_set():
                 raise
@@ -325,6 +325,7 @@ class Agent:
         if opened.sender != CONTROL:
             self.link.opener.rejections.count(Rejected("not mission control", opened.sender, what))
             return None
+        self._control_heard = time.monotonic()
         return data
 
     def report(self, data: dict[str, Any]) -> None:
@@ -335,53 +336,23 @@ class Agent:
             log.debug("report failed: %s", exc)
 
     # --- the clock loop ---------------------------------------------------------------------
-    def _on_presence(self, sample: Any) -> None:
-        """Mission control's token went away (it ended, died, or missed its lease while
-        starved) or came back. Slowness is not absence: a starved mission control keeps its
-        agents; only an absence of `ABSENCE_S` without a break makes them leave."""
-        if sample.kind == zenoh.SampleKind.DELETE:
-            self._watch_absence()
-        else:
-            self._absent_since = None
-
-    def _watch_absence(self) -> None:
-        with self._absence_lock:
-            if self._absent_since is not None:
-                return  # a watcher runs already
-            since = self._absent_since = time.monotonic()
-        threading.Thread(target=self._leave_unless_back, args=(since,), daemon=True).start()
-
-    def _leave_unless_back(self, since: float) -> None:
+    def _watch_control(self) -> None:
+        """Leave once mission control has said nothing signed for `ABSENCE_S` without a
+        break (slowness is not absence: a starved mission control keeps its agents). Its
+        word is a signed answer or command, never a liveliness token: anyone on the bus can
+        declare one, and a stranger's kept agents whose mission control had died running."""
         while not self.stopped.wait(PRESENCE_POLL_S):
-            if self._absent_since != since:
-                return  # back (its token came again), or another absence since
-            if self._present():
-                with self._absence_lock:
-                    if self._absent_since == since:
-                        self._absent_since = None
-                return
-            if time.monotonic() - since >= ABSENCE_S:
+            if time.monotonic() - self._control_heard < PRESENCE_POLL_S:
+                continue  # heard from it just now, in the course of the mission
+            with contextlib.suppress(Exception):  # a closed session: nobody answers
+                self._ask(world_key(self.mission), {"op": "status", "args": {}}, CONTROL)
+            if time.monotonic() - self._control_heard >= ABSENCE_S:
                 log.warning("mission control is gone: leaving")
                 self.stopped.set()
-                return
-
-    def _present(self) -> bool:
-        try:
-            replies = self.session.liveliness().get(presence_key(self.mission), timeout=2.0)
-            return any(r.ok is not None for r in replies)
-        except Exception:  # the session is closed: we are leaving anyway
-            return False
 
     def run(self) -> None:
         self._loop_thread = threading.get_ident()
-        self._presence = Drain(
-            self.session.liveliness().declare_subscriber,
-            presence_key(self.mission),
-            self._on_presence,
-            "presence",
-            history=True,
-        )
-        self._watch_absence()  # until its token is heard: gone already, no DELETE would come
+        threading.Thread(target=self._watch_control, name="watch control", daemon=True).start()
         env, clock, bus = self.env, self.clock, self.bus
         while not self.stopped.is_set():
             with self.lock:

@@ -124,13 +124,16 @@ def test_fleet_run_refuses_uncertain_work() -> None:
 
 @pytest.mark.slow
 def test_an_agent_leaves_when_mission_control_dies_not_while_it_is_slow() -> None:
-    """Its liveliness token is what tells: a world service that does not answer for longer
-    than the old 10 s status poll allowed keeps its agents; a closed session loses them."""
+    """A world service that does not answer for longer than the old 10 s status poll allowed
+    keeps its agents; a closed session loses them, even while a stranger on the bus declares
+    mission control's liveliness token (an agent stays only on mission control's signed word)."""
     import time
 
     from engine.scenario import reference_scenario
     from field.agent import ABSENCE_S
     from field.fleet import Fleet
+    from field.transport import open_session
+    from field.wire import presence_key
 
     fleet = Fleet(reference_scenario(), 0, "nearest", 20.0)
     try:
@@ -145,7 +148,14 @@ def test_an_agent_leaves_when_mission_control_dies_not_while_it_is_slow() -> Non
                 proc.wait(timeout=12.0)
         finally:
             fleet.world._lock.release()
+        stranger = open_session(connect=fleet.endpoint)
+        token = stranger.liveliness().declare_token(presence_key(fleet.mission))
+        time.sleep(2.0)  # (the stranger meets the agent: peers connect to one another)
         fleet.session.close()  # mission control's session ends: gone (for ABSENCE_S and more)
-        assert proc.wait(timeout=ABSENCE_S + 60.0) is not None
+        try:
+            assert proc.wait(timeout=ABSENCE_S + 60.0) is not None
+        finally:
+            token.undeclare()
+            stranger.close()
     finally:
         fleet.close()
