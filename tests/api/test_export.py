@@ -4,7 +4,6 @@ against what the server stored, the poses against the mission's own final state.
 
 from __future__ import annotations
 
-import asyncio
 import math
 import threading
 from collections.abc import Generator
@@ -14,6 +13,7 @@ import httpx
 import pytest
 
 from app.api.routes.export import EXPORTS, _stream
+from tests import aio
 from tests.api.conftest import LiveServer, all_pages, run_to_end
 from tests.api.test_field_mark import stand_in_field  # noqa: F401 - a fixture
 from tests.mcap_check import Export, read_export
@@ -145,7 +145,7 @@ def test_a_stream_left_early_closes_its_writer_and_gives_its_slot_back() -> None
         assert await anext(stream) == b"block"
         await stream.aclose()  # what the server does when the client has gone
 
-    asyncio.run(leave_early())
+    aio.run(leave_early())
     assert closed and closed[0] != threading.main_thread().name  # closed on a worker thread
     assert all(slots.acquire(blocking=False) for _ in range(EXPORTS))  # every slot is back
 

@@ -13,6 +13,7 @@ import pytest
 import websockets
 
 from bench.slow_viewer import gauge, stalled_viewer
+from tests import aio
 from tests.api.conftest import LiveServer, all_pages, recv, recv_until
 from tests.api.serve_process import ServeProcess
 from tests.progress import Progress
@@ -290,7 +291,7 @@ def test_a_stalled_viewer_queues_then_is_dropped_and_others_keep_their_frames(
     env = {"REGOLITH_FRAME_HZ": str(SLOW_HZ), "REGOLITH_VIEWER_QUEUE": "4000"}
     with ServeProcess(tmp_path, "--log-level", "warning", **env) as srv, srv.client() as api:
         mid = api.post("/api/missions", json=body).json()["id"]
-        out = asyncio.run(_stall_session(srv.port, api, mid))
+        out = aio.run(_stall_session(srv.port, api, mid))
         api.post(f"/api/missions/{mid}/stop").raise_for_status()
     viewers, backlog = out["attached"]
     assert viewers == SLOW_READERS + 1 and backlog > 50

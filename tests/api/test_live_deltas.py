@@ -14,6 +14,7 @@ import pytest
 from websockets.asyncio.client import ClientConnection, connect
 
 from app.live.frames import Replica
+from tests import aio
 from tests.api.conftest import AUTH, LiveServer
 from tests.progress import Progress
 
@@ -162,7 +163,7 @@ async def _session(server: LiveServer, seed: int) -> tuple[Watcher, list[Watcher
 def test_snapshot_plus_deltas_is_the_streamed_state_at_every_step(
     server: LiveServer, seed: int
 ) -> None:
-    first, late, did = asyncio.run(_session(server, seed))
+    first, late, did = aio.run(_session(server, seed))
     assert len(did) >= 3 and first.frames > 20
     record = first.record  # type: ignore[attr-defined]
     shared = 0

@@ -27,6 +27,7 @@ import pytest
 from app.live import gc_pause
 from app.services.playback import WORKERS
 from engine import reference_scenario
+from tests import aio
 from tests.api.conftest import AUTH
 from tests.api.serve_process import ServeProcess
 
@@ -85,7 +86,7 @@ def test_many_scrubs_beside_a_live_mission_stay_bounded(tmp_path: Path) -> None:
         server = psutil.Process(srv.proc.pid)
 
         # six first scrubs at once: all answer, and the checkpoint builders all end
-        codes = asyncio.run(_scrub_all(srv.url, [(mid, 100.0) for mid in ids]))
+        codes = aio.run(_scrub_all(srv.url, [(mid, 100.0) for mid in ids]))
         assert codes == [200] * MISSIONS
         _until_builders_end(api, most_built=MISSIONS + CAPACITY)
         assert _metric(api, "regolith_playback_engines") <= CAPACITY
@@ -93,7 +94,7 @@ def test_many_scrubs_beside_a_live_mission_stay_bounded(tmp_path: Path) -> None:
         start = server.memory_info().rss
         rng = random.Random(5)
         jobs = [(mid, round(rng.random() * ends[mid], 1)) for mid in rng.choices(ids, k=80)]
-        codes = asyncio.run(_scrub_all(srv.url, jobs))
+        codes = aio.run(_scrub_all(srv.url, jobs))
         assert codes == [200] * len(jobs)
         built = _metric(api, "regolith_playback_engines_built_total")
         _until_builders_end(api, most_built=int(built) + CAPACITY)

@@ -14,6 +14,7 @@ from typing import Any
 
 from app.services.commands import RobotCommands
 from field.control import Injection
+from tests import aio
 
 CONSOLE_S = 1.0
 
@@ -74,7 +75,7 @@ def test_an_injection_waits_for_the_console_off_the_gate_and_the_event_loop() ->
             ticks += 1
         return task.result(), ticks
 
-    auction_id, ticks = asyncio.run(scenario())
+    auction_id, ticks = aio.run(scenario())
     assert auction_id == "operator/1"
     assert mission.gate_free_while_sending is True
     assert ticks >= 20  # the loop ran on while the console took its second (0 if blocked)
