@@ -119,11 +119,11 @@ class Worker:
             frame = encode({**message, "id": rid})
             async with self._write:
                 assert self.proc.stdin is not None
-                try:
+                # a dead worker's pipe refuses (ConnectionError, or RuntimeError once asyncio has
+                # closed it): `_read` answers the future with why it died
+                with contextlib.suppress(ConnectionError, RuntimeError):
                     self.proc.stdin.write(frame)
                     await self.proc.stdin.drain()
-                except ConnectionError:
-                    pass  # it died: `_read` answers the future with why
             return await future
         finally:
             self.pending.pop(rid, None)
@@ -132,7 +132,7 @@ class Worker:
         """Ask the worker to stop, kill it if it has not within `STOP_S`; wait for its end."""
         self._stopping = why
         assert self.proc.stdin is not None
-        with contextlib.suppress(ConnectionError):
+        with contextlib.suppress(ConnectionError, RuntimeError):
             self.proc.stdin.write(encode({"op": "stop"}))
             self.proc.stdin.close()
         try:
