@@ -113,10 +113,13 @@ class Worker:
         if self.gone is not None:
             raise Unavailable(f"the playback worker (pid {self.pid}) {self.gone}; try again")
         rid = next(self._ids)
+        try:
+            frame = encode({**message, "id": rid})
+        except WireError as exc:  # a mission with more actions than a frame holds
+            raise Conflict(f"this mission cannot be played back: {exc}") from exc
         future: asyncio.Future[dict[str, Any]] = asyncio.get_running_loop().create_future()
         self.pending[rid] = future
         try:
-            frame = encode({**message, "id": rid})
             async with self._write:
                 assert self.proc.stdin is not None
                 # a dead worker's pipe refuses (ConnectionError, or RuntimeError once asyncio has

@@ -26,6 +26,7 @@ from typing import Any
 from app.services.errors import Conflict
 from app.services.playback_pool import Pool, Spec
 from app.services.playback_wire import WireError, encode, read_frame
+from experiments.lifeline import die_with
 
 _STATS_EVERY_S = 0.1
 
@@ -111,6 +112,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--cursors", type=int, required=True)
     ap.add_argument("--per-mission", type=int, required=True)
     args = ap.parse_args(argv)
+    # the end of stdin stops it when the server goes; this also ends it if the server is killed
+    # while another process holds that pipe open, or its loop is stuck
+    die_with(os.getppid())
     # frames go to a private copy of stdout; anything printed (by native code too) goes to stderr
     out_fd = os.dup(1)
     os.dup2(2, 1)
