@@ -10,9 +10,11 @@ progress or on the server's own gauges, never on a fixed time.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import random
 import signal
+import struct
 import threading
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
@@ -23,6 +25,7 @@ import psutil
 import pytest
 
 from app.live.records import stream_state
+from app.services.playback_wire import MAX_FRAME, WireError, encode, read_frame
 from engine import Mission, parse_scenario, reference_scenario
 from tests.api.conftest import LiveServer, make_settings, run_to_end
 from tests.api.serve_process import ServeProcess
@@ -247,3 +250,32 @@ def test_random_scrubs_and_kills_beside_a_live_mission(tmp_path: Path) -> None:
             assert _metric(api, "regolith_playback_worker_starts_total") >= kills
     finally:
         server.stop()
+
+
+def _read(data: bytes) -> dict[str, Any] | None:
+    async def go() -> dict[str, Any] | None:
+        reader = asyncio.StreamReader()
+        reader.feed_data(data)
+        reader.feed_eof()
+        return await read_frame(reader)
+
+    return asyncio.run(go())
+
+
+def test_the_wire_refuses_what_is_not_a_frame_of_ours() -> None:
+    """What the server takes from the worker's stdout is checked before it is used: a length
+    over the cap is refused before reading it, and so is a frame that is not a JSON object."""
+    assert _read(encode({"id": 1, "ok": {}})) == {"id": 1, "ok": {}}
+    assert _read(b"") is None  # a clean end between frames
+    too_big = struct.pack(">I", MAX_FRAME + 1)
+    for data, says in [
+        (too_big, "over the"),
+        (b"\x00\x00", "header"),
+        (struct.pack(">I", 10) + b"{}", "inside a 10-byte frame"),
+        (struct.pack(">I", 3) + b"{x}", "not JSON"),
+        (struct.pack(">I", 2) + b"[]", "not an object"),
+    ]:
+        with pytest.raises(WireError, match=says):
+            _read(data)
+    with pytest.raises(WireError, match="frame limit"):
+        encode({"x": "a" * MAX_FRAME})
