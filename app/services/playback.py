@@ -152,7 +152,7 @@ class Worker:
         try:
             while (msg := await read_frame(self.proc.stdout)) is not None:
                 self._take(msg)
-        except WireError as exc:
+        except Exception as exc:  # WireError, or anything a broken frame could cause in `_take`
             why = f"sent a malformed frame ({exc}) and was stopped"
             with contextlib.suppress(ProcessLookupError):
                 self.proc.kill()
