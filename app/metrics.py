@@ -147,6 +147,24 @@ class RegolithCollector(Collector):
             yield CounterMetricFamily(
                 "regolith_playback_engines_closed", "Replay engines closed.", pb.closed
             )
+            yield GaugeMetricFamily(
+                "regolith_playback_worker_up",
+                "1 while the playback worker process runs (stopped when idle).",
+                int(pb.worker_pid is not None),
+            )
+            yield CounterMetricFamily(
+                "regolith_playback_worker_starts", "Playback worker processes started.", pb.starts
+            )
+            yield GaugeMetricFamily(
+                "regolith_playback_worker_rss_bytes",
+                "The playback worker's resident memory (0 when it is stopped).",
+                pb.worker_rss(),
+            )
+            yield GaugeMetricFamily(
+                "regolith_playback_queue",
+                "Scrubs waiting for the playback worker or with it.",
+                pb.queued,
+            )
         yield CounterMetricFamily(
             "regolith_gc_full_collections",
             "Full garbage collections run while missions were live (dropped engines' cycles).",

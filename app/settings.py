@@ -44,6 +44,10 @@ class Settings(BaseSettings):
     ws_max_message: Annotated[int, Field(ge=64, le=1_048_576)] = 4096
     playback_cursors: Annotated[int, Field(ge=1, le=1000)] = 10
     playback_per_mission: Annotated[int, Field(ge=1, le=1000)] = 5
+    # the playback worker process is stopped after this long without a scrub (its memory freed)
+    playback_idle_s: Annotated[float, Field(gt=0, le=86_400)] = 60.0
+    # scrubs waiting for playback (for the worker or for the same moment's answer) at most
+    playback_queue: Annotated[int, Field(ge=1, le=1_000_000)] = 1000
 
     sweep_workers: Annotated[int, Field(ge=1, le=256)] = 1
     max_running_sweeps: Annotated[int, Field(ge=1, le=64)] = 1

@@ -5,8 +5,8 @@
 SIGUSR1: the RSS, glibc's heap (`mallinfo2`, all arenas), CPython's small-object allocator
 (pymalloc: its 1 MiB arenas, the bytes in allocated and available blocks, from
 `sys._debugmallocstats`) and the objects the collector tracks by type, frozen ones included
-(unfrozen for the count, frozen again). SIGHUP: the same after closing every parked playback
-engine and a full collection with `malloc_trim(0)`: what memory the process keeps once the
+(unfrozen for the count, frozen again). SIGHUP: the same after stopping the playback worker
+and a full collection with `malloc_trim(0)`: what memory the process keeps once the
 pool is gone. Used by `bench/playback_load.py --diag` (docs/benchmarks.md, Playback).
 """
 
@@ -86,18 +86,21 @@ def dump(label: str) -> None:
 
 
 def _drop_pool() -> None:
+    import asyncio
+
     from app.services.playback import Playback
 
     gc.unfreeze()
-    closed = 0
+    stopped = 0
     for pb in [o for o in gc.get_objects() if isinstance(o, Playback)]:
-        while pb._parked:  # (no scrub in flight: the bench sends this only when idle)
-            pb._close(pb._parked.pop())
-            closed += 1
+        if pb.worker_pid is not None:  # (no scrub in flight: the bench sends this only when idle)
+            stop = pb.stop_worker("was stopped by memdiag")
+            asyncio.run_coroutine_threadsafe(stop, pb.loop).result()
+            stopped += 1
     gc.collect()
     _LIBC.malloc_trim(0)
     gc.freeze()
-    dump(f"pool closed ({closed} engines), full collection, malloc_trim")
+    dump(f"playback worker stopped ({stopped}), full collection, malloc_trim")
 
 
 def _on(signum: int, _frame: Any) -> None:

@@ -11,7 +11,10 @@ stays live throughout: the heap is frozen, `app/live/gc_pause.py`) and measures
    back to 0 in `/api/metrics`) and the server's CPU share meanwhile;
 2. load: `--scrubs` concurrent scrubs to random times over those missions (all sent at once);
    the server's resident memory (RSS) sampled every 0.1 s: at start, peak, and 10 s after the
-   last answer; the engines open (`regolith_playback_engines`) and full collections run.
+   last answer; the engines open (`regolith_playback_engines`) and full collections run;
+   the playback worker's RSS (the server's child process) at its peak and 10 s after;
+3. idle: how long until the server stops the idle worker (`--idle`, REGOLITH_PLAYBACK_IDLE_S),
+   and the server's RSS then.
 
 Prints one line per figure. With `--diag` the server runs under bench/memdiag_serve.py and
 the memory's make-up (glibc heap, CPython's allocator arenas and blocks, objects by type) is
@@ -23,6 +26,8 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
+import os
 import random
 import signal
 import subprocess
@@ -55,16 +60,27 @@ def gauge(api: httpx.Client, name: str) -> str:
         return "?"
 
 
+def children_rss(proc: psutil.Process) -> int:
+    """The RSS of the server's child processes (the playback worker), summed."""
+    total = 0
+    for child in proc.children(recursive=True):
+        with contextlib.suppress(psutil.Error):
+            total += child.memory_info().rss
+    return total
+
+
 class Sampler(threading.Thread):
-    """The server's RSS every 0.1 s, keeping the peak."""
+    """The server's RSS and its children's (the playback worker) every 0.1 s, keeping peaks."""
 
     def __init__(self, proc: psutil.Process) -> None:
         super().__init__(daemon=True)
         self.proc, self.peak, self.stop = proc, 0, threading.Event()
+        self.child_peak = 0
 
     def run(self) -> None:
         while not self.stop.wait(0.1):
             self.peak = max(self.peak, self.proc.memory_info().rss)
+            self.child_peak = max(self.child_peak, children_rss(self.proc))
 
 
 def finished(api: httpx.Client, n: int, scale: int) -> list[int]:
@@ -118,13 +134,19 @@ def main() -> None:
     ap.add_argument("--scrubs", type=int, default=500)
     ap.add_argument("--scale", type=int, default=1)
     ap.add_argument("--diag", action="store_true", help="memory make-up (memdiag_serve.py)")
+    ap.add_argument("--idle", type=float, default=20.0, help="REGOLITH_PLAYBACK_IDLE_S")
     args = ap.parse_args()
     port = free_port()
     base = f"http://127.0.0.1:{port}"
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "memdiag.txt"
         launcher = [str(Path(__file__).with_name("memdiag_serve.py"))] if args.diag else None
-        proc = start_server(Path(tmp), port, {"MEMDIAG_OUT": str(out)}, launcher)
+        proc = start_server(
+            Path(tmp),
+            port,
+            {"MEMDIAG_OUT": str(out), "REGOLITH_PLAYBACK_IDLE_S": str(args.idle)},
+            launcher,
+        )
         server = psutil.Process(proc.pid)
 
         def diag(sig: signal.Signals = signal.SIGUSR1) -> None:
@@ -164,6 +186,7 @@ def main() -> None:
                 time.sleep(10.0)
                 sampler.stop.set()
                 after = server.memory_info().rss
+                worker_after = children_rss(server)
                 state = api.get(f"/api/missions/{live['id']}").json()["status"]
                 print(
                     f"load: {args.scrubs} concurrent scrubs, p50 {pct(lat, 0.5):.2f} s, "
@@ -177,6 +200,20 @@ def main() -> None:
                     f"collections {gauge(api, 'regolith_gc_full_collections_total')} taking "
                     f"{gauge(api, 'regolith_gc_full_collection_seconds_total')} s; "
                     f"live mission {state}"
+                )
+                print(
+                    f"playback worker: peak {sampler.child_peak / MB:.0f} MB, "
+                    f"{worker_after / MB:.0f} MB 10 s after"
+                )
+                t1 = time.perf_counter()
+                while metric(api, "regolith_playback_worker_up") > 0:
+                    time.sleep(0.5)
+                time.sleep(2.0)
+                print(
+                    f"idle: worker stopped {time.perf_counter() - t1 + 10:.0f} s after the last "
+                    f"answer (--idle {args.idle:g}); server {server.memory_info().rss / MB:.0f} MB "
+                    f"2 s later, children {children_rss(server) / MB:.0f} MB; load average "
+                    + " ".join(f"{x:.1f}" for x in os.getloadavg())
                 )
                 diag()
                 diag(signal.SIGHUP)

@@ -15,7 +15,9 @@ while a mission was live stayed in memory until the server went idle: hundreds o
 beside one live mission grew the server by gigabytes. So a full collection (unfreeze, collect,
 freeze again) also runs while busy when
 
-- `DROP_LIMIT` engines were dropped since the last one (`dropped()`, called by playback), at
+- `DROP_LIMIT` engines were dropped since the last one (`dropped()`; playback called it while
+  its engines were in the server: they are now in the playback worker process, so nothing
+  does at present), at
   most one per `MIN_GAP_S` (or per `COST_RATIO` times the last one's duration, so a big
   heap's collections never take more than a tenth of the time), and any fewer `LATE_S`
   after the last one, so the garbage of

@@ -34,3 +34,9 @@ class LimitExceeded(ServiceError):
     """A configured resource limit (missions, robots, viewers) is reached."""
 
     status_code = 429
+
+
+class Unavailable(ServiceError):
+    """A part of the service is down for now (the playback worker died); try again."""
+
+    status_code = 503

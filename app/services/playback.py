@@ -1,29 +1,21 @@
 """Mission playback: a mission exactly as it was at any simulated time, rebuilt by replay.
 
-A mission is a pure function of its scenario, seed, planner and replayable operator actions,
-so the state at time `t` is what a fresh engine shows after replaying the actions up to `t`
-and advancing to `t`. Replaying from zero on every scrub would cost a whole run each time,
-and an engine cannot be copied (its robots are simpy processes, i.e. generators, which
-neither `copy` nor `pickle` can take), so the checkpoints are engines themselves: *cursors*
-parked at the time they last showed. A request takes the parked cursor of that mission
-closest before `t` and advances it (playing forward costs only the simulated span between
-two requests); only a step back past every cursor starts a new one from zero. The pool is
-bounded (`REGOLITH_PLAYBACK_CURSORS` engines in all, at most `REGOLITH_PLAYBACK_PER_MISSION`
-per mission; within a mission the survivors stay spread over the timeline, across missions
-the least recently used go first: `app/services/cursors.py`). After a request the pool also
-builds *checkpoints* for that mission in the background, at the middle of the widest stretch
-of its timeline no cursor covers, until no stretch is wider than the timeline divided by the
-per-mission limit less one (a quarter, by default): a scrub anywhere then replays at most that
-much, and a scrub that carries a checkpoint away leaves room for it to be rebuilt.
-Checkpoints go only into free room and within the mission's share of the pool (`share`), so
-they never evict a cursor: many missions' builders once evicted one another's checkpoints and
-rebuilt them for ever. An engine closed here is reported to the collector (`GcPause.dropped`):
-while a mission is live the heap is frozen and only a full collection frees its cycles.
+The replay engines run in a worker process of their own (`app/services/playback_worker.py`,
+the pool itself in `app/services/playback_pool.py`), not in the server. A replay engine is
+megabytes of small objects; in the server, while a mission is live, the live engine's
+ever-growing log landed in the same allocator arenas as the replays' short-lived objects and
+kept those arenas from going back to the system: after a burst of scrubs the server stayed
+~200 MB above its start for good. The worker's heap holds nothing but the pool, and the
+server stops the worker once playback has been idle for `REGOLITH_PLAYBACK_IDLE_S`, which
+gives all of it back; the next scrub starts a new one (a second or two to import the engine).
 
-Replay work runs on a worker thread in short slices, each taking the engine gate the way the
-stepping thread does (after anyone on the event loop), so live missions keep stepping and the
-API keeps answering meanwhile. A cursor is
-checked out while it works: two viewers scrubbing one mission never share an engine.
+Here: the checks a request needs the database for (404, 422 past the end, 409 for a field
+mission), the replayable actions (a live mission's from its engine, so an action just applied
+counts before it is committed), and the worker's life. Concurrent requests for the same
+moment of a mission share one answer; at most `IN_FLIGHT` requests are with the worker at a
+time and at most `REGOLITH_PLAYBACK_QUEUE` wait in all (429 beyond). A worker that dies
+(killed, crashed, or sent a malformed or oversized frame) answers every request it held with
+503 saying what happened, and the next request starts a new one.
 """
 
 from __future__ import annotations
@@ -31,49 +23,34 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import itertools
-import time
-from dataclasses import dataclass, field
-from time import perf_counter
+import os
+import signal
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from time import monotonic
 from typing import Any
 
+import app
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
-from app.live.records import auction_dict, stream_state
-from app.services.cursors import evictions, gap_to_fill, pick
-from app.services.errors import Conflict, Invalid
+from app.services.errors import Conflict, Invalid, LimitExceeded, Unavailable
 from app.services.live_state import LiveState
 from app.services.missions import MissionService
+from app.services.playback_pool import WORKERS
+from app.services.playback_wire import WireError, encode, read_frame
+from app.services.singleflight import SingleFlight
 from app.settings import Settings
-from engine import Mission, parse_scenario
-from engine.mission import PLANNERS
 
-#: Auctions sent with a state: the latest opened by `t` (as the live feed loads), plus any
-#: older one still open at `t`.
-FEED_AUCTIONS = 200
-_SLICE_S = 0.005
-#: Requests replaying at once (the rest wait their turn), so a burst of scrubs cannot build
-#: engines beyond the pool's bound; checkpoints are built one at a time, apart from them.
-WORKERS = 2
-_YIELD_S = 0.002
-#: the playhead and one checkpoint: what a mission may fill up to whatever its share
-MIN_SHARE = 3
+__all__ = ["WORKERS", "Playback", "StateAt"]
+
+#: Requests with the worker at once (the rest wait here): enough to keep its two replays and
+#: the next ones busy, few enough that the worker holds little besides its engines.
+IN_FLIGHT = 2 * WORKERS
+#: How long a worker told to stop may take before it is killed.
+STOP_S = 10.0
 _EPS = 1e-9
-
-
-@dataclass(eq=False)
-class Cursor:
-    """A replay engine parked at `engine.now`, with how far it has read its own log."""
-
-    mission_id: int
-    engine: Mission
-    applied: int = 0  # replayable actions applied so far
-    scanned: int = 0  # events looked through for deliveries
-    deliveries: list[dict[str, Any]] = field(default_factory=list)
-    used: int = 0
-
-    @property
-    def at(self) -> float:
-        return self.engine.now
+_STATS = ("engines", "fills", "built", "closed", "parked")
 
 
 @dataclass(frozen=True)
@@ -90,33 +67,154 @@ class StateAt:
     events: int
 
 
-class Closing(Exception):
-    """The server is stopping: replay work in flight gives up."""
+def _checked_answer(ok: Any) -> dict[str, Any]:
+    """The worker's answer, if it has the shape of one (else WireError)."""
+    if not (
+        isinstance(ok, dict)
+        and isinstance(ok.get("state"), dict)
+        and isinstance(ok.get("auctions"), list)
+        and isinstance(ok.get("deliveries"), list)
+        and type(ok.get("events")) is int
+    ):
+        raise WireError("an answer without state, auctions, deliveries and events")
+    return ok
+
+
+def _checked_stats(stats: Any) -> dict[str, int]:
+    if not (isinstance(stats, dict) and all(type(stats.get(k)) is int for k in _STATS)):
+        raise WireError("counts without " + ", ".join(_STATS))
+    return {k: stats[k] for k in _STATS}
+
+
+def _how(code: int) -> str:
+    if code < 0:
+        with contextlib.suppress(ValueError):
+            return f"was killed by {signal.Signals(-code).name}"
+        return f"was killed by signal {-code}"
+    return f"exited with status {code}"
+
+
+class Worker:
+    """One worker process and the requests it holds; `gone` says why it ended, once it has."""
+
+    def __init__(self, proc: asyncio.subprocess.Process) -> None:
+        self.proc = proc
+        self.pid = proc.pid
+        self.pending: dict[int, asyncio.Future[dict[str, Any]]] = {}
+        self.stats = dict.fromkeys(_STATS, 0)
+        self.gone: str | None = None
+        self._stopping: str | None = None
+        self._ids = itertools.count(1)
+        self._write = asyncio.Lock()
+        self.done = asyncio.create_task(self._read())
+
+    async def ask(self, message: dict[str, Any]) -> dict[str, Any]:
+        """Send one request and wait for its answer (Conflict, or Unavailable if it dies)."""
+        if self.gone is not None:
+            raise Unavailable(f"the playback worker (pid {self.pid}) {self.gone}; try again")
+        rid = next(self._ids)
+        try:
+            frame = encode({**message, "id": rid})
+        except WireError as exc:  # a mission with more actions than a frame holds
+            raise Conflict(f"this mission cannot be played back: {exc}") from exc
+        future: asyncio.Future[dict[str, Any]] = asyncio.get_running_loop().create_future()
+        self.pending[rid] = future
+        try:
+            async with self._write:
+                assert self.proc.stdin is not None
+                # a dead worker's pipe refuses (ConnectionError, or RuntimeError once asyncio has
+                # closed it): `_read` answers the future with why it died
+                with contextlib.suppress(ConnectionError, RuntimeError):
+                    self.proc.stdin.write(frame)
+                    await self.proc.stdin.drain()
+            return await future
+        finally:
+            self.pending.pop(rid, None)
+
+    async def stop(self, why: str) -> None:
+        """Ask the worker to stop, kill it if it has not within `STOP_S`; wait for its end."""
+        self._stopping = why
+        assert self.proc.stdin is not None
+        with contextlib.suppress(ConnectionError, RuntimeError):
+            self.proc.stdin.write(encode({"op": "stop"}))
+            self.proc.stdin.close()
+        try:
+            await asyncio.wait_for(asyncio.shield(self.done), STOP_S)
+        except TimeoutError:
+            with contextlib.suppress(ProcessLookupError):
+                self.proc.kill()
+            await self.done
+
+    async def _read(self) -> None:
+        """Take frames until the worker's stdout ends; then fail whatever it still held."""
+        assert self.proc.stdout is not None
+        why = None
+        try:
+            while (msg := await read_frame(self.proc.stdout)) is not None:
+                self._take(msg)
+        except Exception as exc:  # WireError, or anything a broken frame could cause in `_take`
+            why = f"sent a malformed frame ({exc}) and was stopped"
+            with contextlib.suppress(ProcessLookupError):
+                self.proc.kill()
+        code = await self.proc.wait()
+        self.gone = self._stopping or why or _how(code)
+        self.stats["engines"] = self.stats["fills"] = self.stats["parked"] = 0
+        for future in self.pending.values():
+            if not future.done():
+                future.set_exception(
+                    Unavailable(
+                        f"the playback worker (pid {self.pid}) {self.gone} while this scrub "
+                        "was waiting for it; try again: the next scrub starts a new worker"
+                    )
+                )
+
+    def _take(self, msg: dict[str, Any]) -> None:
+        if "stats" in msg:
+            self.stats = _checked_stats(msg["stats"])
+        rid = msg.get("id")
+        if rid is None:
+            return
+        future = self.pending.get(rid) if type(rid) is int else None
+        if future is None or future.done():
+            return  # its caller went away (the answer is dropped)
+        if "ok" in msg:
+            future.set_result(_checked_answer(msg["ok"]))
+        elif msg.get("error") == "conflict":
+            future.set_exception(Conflict(str(msg.get("message"))))
+        else:
+            future.set_exception(
+                Unavailable(f"the playback worker failed on this scrub: {msg.get('message')}")
+            )
 
 
 class Playback:
-    """The pool of replay cursors, shared by every viewer of every mission."""
+    """Answers `state?t=` through the playback worker, which it starts, watches and stops."""
 
     def __init__(self, settings: Settings, missions: MissionService) -> None:
         self.missions = missions
         self.gate: Gate = missions.gate
         self.capacity = settings.playback_cursors
         self.per_mission = settings.playback_per_mission
-        self._parked: list[Cursor] = []
-        self._clock = itertools.count(1)
-        self._fills: dict[int, asyncio.Task[None]] = {}
+        self.idle_s = settings.playback_idle_s
+        self.queue_cap = settings.playback_queue
+        self._flights: SingleFlight[dict[str, Any]] = SingleFlight()
+        self._forward = asyncio.Semaphore(IN_FLIGHT)
+        self._life = asyncio.Lock()  # a worker starts or stops one at a time
+        self._worker: Worker | None = None
+        self._watchers: set[asyncio.Task[None]] = set()
         self._closing = False
-        self._workers = asyncio.Semaphore(WORKERS)
-        self._filler = asyncio.Semaphore(1)
-        self._asking = 0  # requests waiting or replaying: checkpoint building pauses for them
-        self._out = 0  # cursors checked out by requests (they come back to the pool)
-        self.built = 0  # cursors started from zero (for tests and the bench)
-        self.closed = 0  # engines closed (evicted, failed, or at shutdown)
-        self.gc_pause = missions.runner.gc_pause
+        self.queued = 0  # requests waiting here or with the worker
+        self._last_busy = monotonic()
+        self.starts = 0  # workers started (metrics)
+        self._gone_built = 0  # engines of ended workers (all closed with them)
+        self.loop = asyncio.get_running_loop()
+
+    # -- requests ------------------------------------------------------------------------
 
     async def state_at(self, mission_id: int, t: float) -> StateAt:
         """The state of mission `mission_id` at simulated time `t` (404 unknown, 422 `t`
-        past the mission's time, 409 if its replay fails or it is a field mission)."""
+        past the mission's time, 409 if its replay fails or it is a field mission, 429 when
+        too many scrubs wait, 503 if the worker dies meanwhile)."""
         row, live = await self.missions.detail(mission_id)
         if row.mode == "field":
             raise Conflict(
@@ -132,23 +230,25 @@ class Playback:
                 ("query", "t"),
             )
         actions = self._actions(mission_id, row)
-        self._asking += 1
-        try:
-            async with self._workers:
-                self._out += 1
-                try:
-                    cursor = await self._replay(row, actions, t)
-                    try:
-                        out = await asyncio.to_thread(self._read, cursor)
-                    finally:
-                        self._checkin(cursor)
-                finally:
-                    self._out -= 1
-        finally:
-            self._asking -= 1
-        self._fill_later(row, actions, end)
-        state, auctions, deliveries, events = out
-        return StateAt(t, end, row, live, state, auctions, deliveries, events)
+        upto = sum(1 for a in actions if float(a["t"]) <= t)
+        request = {
+            "op": "state",
+            "mission": {
+                "id": row.id,
+                "scenario": row.scenario,
+                "seed": row.seed,
+                "policy": row.policy,
+                "planner": row.planner,
+            },
+            "actions": actions,
+            "t": t,
+            "end": end,
+        }
+        # the same moment asked twice at once (the same actions up to it): one replay
+        out = await self._flights.run((mission_id, t, upto), lambda: self._ask(request))
+        return StateAt(
+            t, end, row, live, out["state"], out["auctions"], out["deliveries"], out["events"]
+        )
 
     def _actions(self, mission_id: int, row: MissionRow) -> list[dict[str, Any]]:
         """The replayable actions in order: the live engine's own list while it runs (an
@@ -160,164 +260,122 @@ class Playback:
         stored = sorted((a for a in row.actions if a.replay), key=lambda a: a.seq)
         return [{"t": a.t, "kind": a.kind, "args": a.args} for a in stored]
 
-    async def _replay(
-        self, row: MissionRow, actions: list[dict[str, Any]], t: float, background: bool = False
-    ) -> Cursor:
-        """A cursor of `row` standing at `t`: the parked one latest before `t`, moved on, or
-        a new one (checked out: the caller checks it back in)."""
-        if self._closing:
-            raise Conflict("the server is stopping")
-        cursor = pick(self._parked, row.id, t)
-        if cursor is not None:
-            self._parked.remove(cursor)
+    async def _ask(self, request: dict[str, Any]) -> dict[str, Any]:
+        if self.queued >= self.queue_cap:
+            raise LimitExceeded(
+                f"{self.queued} scrubs are already waiting for playback, the most allowed "
+                "(REGOLITH_PLAYBACK_QUEUE); try again shortly"
+            )
+        self.queued += 1
         try:
-            if cursor is None:
-                cursor = await asyncio.to_thread(self._build, row)
-            await asyncio.to_thread(self._advance_with, cursor, actions, t, background)
-        except Exception as exc:
-            if cursor is not None:
-                await asyncio.to_thread(self._close, cursor)
-            if isinstance(exc, Closing):
-                raise Conflict("the server is stopping") from exc
-            raise Conflict(f"mission {row.id} cannot be replayed to t={t:g}: {exc}") from exc
-        return cursor
+            async with self._forward:
+                worker = await self._running()
+                return await worker.ask(request)
+        finally:
+            self.queued -= 1
+            self._last_busy = monotonic()
 
-    # -- the pool ----------------------------------------------------------------------
+    # -- the worker's life -----------------------------------------------------------------
 
-    def _checkin(self, cursor: Cursor) -> None:
-        cursor.used = next(self._clock)
-        self._parked.append(cursor)
-        for c in evictions(self._parked, self.per_mission, self.capacity):
-            self._parked.remove(c)
-            self._close(c)
+    async def _running(self) -> Worker:
+        """The live worker, started if there is none (or the last one ended)."""
+        async with self._life:
+            if self._closing:
+                raise Unavailable("the server is stopping")
+            w = self._worker
+            if w is None or w.gone is not None:
+                w = self._worker = await self._start()
+            return w
 
-    def parked(self, mission_id: int | None = None) -> list[float]:
-        """The times the parked cursors stand at (of one mission, or all)."""
-        return sorted(c.at for c in self._parked if mission_id in (None, c.mission_id))
+    async def _start(self) -> Worker:
+        root = str(Path(app.__file__).resolve().parent.parent)  # this very code, wherever run
+        path = os.environ.get("PYTHONPATH")
+        env = {**os.environ, "PYTHONPATH": root + (os.pathsep + path if path else "")}
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable,
+            "-m",
+            "app.services.playback_worker",
+            "--cursors",
+            str(self.capacity),
+            "--per-mission",
+            str(self.per_mission),
+            stdin=asyncio.subprocess.PIPE,
+            stdout=asyncio.subprocess.PIPE,
+            env=env,
+            limit=2**20,
+        )
+        w = Worker(proc)
+        self.starts += 1
+        w.done.add_done_callback(lambda _: self._ended(w))
+        self._last_busy = monotonic()
+        watcher = asyncio.create_task(self._watch_idle(w))
+        self._watchers.add(watcher)
+        watcher.add_done_callback(self._watchers.discard)
+        return w
 
-    def _fill_later(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
-        """Build this mission's missing checkpoints in the background (one task a mission)."""
-        if row.id not in self._fills and not self._closing:
-            task = asyncio.create_task(self._fill(row, actions, end))
-            self._fills[row.id] = task
-            task.add_done_callback(lambda _: self._fills.pop(row.id, None))
+    def _ended(self, w: Worker) -> None:
+        self._gone_built += w.stats["built"]
+        if self._worker is w:
+            self._worker = None
 
-    def share(self, mission_id: int) -> int:
-        """How many cursors this mission may keep through checkpoints: its even share of the
-        pool among the missions holding cursors (or building them), at most the per-mission
-        limit, at least `MIN_SHARE` (a checkpoint at the middle; only into free room).
-        Checkpoints of six missions wanting four each in a pool of ten would otherwise evict
-        one another and be rebuilt for ever."""
-        holders = {c.mission_id for c in self._parked} | set(self._fills) | {mission_id}
-        return min(self.per_mission, max(MIN_SHARE, self.capacity // len(holders)))
+    async def _watch_idle(self, w: Worker) -> None:
+        """Stop `w` once no request has waited and no checkpoint been built for `idle_s`."""
+        while w.gone is None:
+            await asyncio.sleep(min(1.0, self.idle_s / 4))
+            if self.queued or w.pending or w.stats["fills"]:
+                self._last_busy = monotonic()
+            elif monotonic() - self._last_busy >= self.idle_s:
+                async with self._life:
+                    if not self.queued and not w.pending and w.gone is None:
+                        await w.stop(f"was stopped after {self.idle_s:g} s idle")
 
-    async def _fill(self, row: MissionRow, actions: list[dict[str, Any]], end: float) -> None:
-        """Checkpoints only into free room, within the mission's share, and at most
-        `per_mission` builds a run: a checkpoint never evicts another cursor, so this ends."""
-        for _ in range(self.per_mission):
-            if self._room() <= 0:
-                return
-            at = gap_to_fill(self.parked(row.id), end, self.share(row.id))
-            if at is None:
-                return
-            async with self._filler:
-                try:
-                    cursor = await self._replay(row, actions, at, background=True)
-                except Conflict:
-                    return
-                if self._room() <= 0:  # requests filled the pool meanwhile: theirs goes first
-                    await asyncio.to_thread(self._close, cursor)
-                    return
-                self._checkin(cursor)
+    async def stop_worker(self, why: str) -> None:
+        """Stop the worker now, if there is one (shutdown; the memory bench)."""
+        async with self._life:
+            if self._worker is not None and self._worker.gone is None:
+                await self._worker.stop(why)
 
-    def _room(self) -> int:
-        """Free slots in the pool (parked cursors count, checked-out ones will come back)."""
-        return self.capacity - len(self._parked) - self._out
+    async def aclose(self) -> None:
+        """Stop the worker (the server is stopping): no process outlives the server."""
+        self._closing = True
+        await self.stop_worker("was stopped with the server")
+        for watcher in list(self._watchers):
+            watcher.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await watcher
+
+    # -- what the metrics show -------------------------------------------------------------
 
     @property
-    def checked_out(self) -> int:
-        """Cursors working for requests now."""
-        return self._out
+    def worker_pid(self) -> int | None:
+        w = self._worker
+        return w.pid if w is not None and w.gone is None else None
+
+    @property
+    def built(self) -> int:
+        """Replay engines started from zero, by every worker so far."""
+        w = self._worker
+        return self._gone_built + (w.stats["built"] if w is not None else 0)
+
+    @property
+    def closed(self) -> int:
+        """Replay engines closed (an ended worker's all are)."""
+        w = self._worker
+        return self._gone_built + (w.stats["closed"] if w is not None else 0)
 
     @property
     def fills(self) -> int:
         """Missions whose checkpoints are being built now."""
-        return len(self._fills)
+        w = self._worker
+        return w.stats["fills"] if w is not None else 0
 
-    async def aclose(self) -> None:
-        """Stop building checkpoints and close every parked engine (the server is stopping)."""
-        self._closing = True
-        for task in list(self._fills.values()):
-            with contextlib.suppress(Exception):
-                await task
-        while self._parked:
-            self._close(self._parked.pop())
-
-    # -- engine work (worker thread, short holds of the gate) ---------------------------
-
-    def _close(self, cursor: Cursor) -> None:
-        """Close an engine and tell the collector: while a live mission keeps the heap frozen
-        (`app/live/gc_pause.py`), a dropped engine's reference cycles are only reclaimed by
-        the full collection this asks for."""
-        with self.gate:
-            cursor.engine.close()
-        self.closed += 1
-        self.gc_pause.dropped()
-
-    def _build(self, row: MissionRow) -> Cursor:
-        planner = row.planner if row.planner in PLANNERS else "ompl"  # as a resume does
-        with self.gate:
-            m = Mission(parse_scenario(row.scenario), row.seed, row.policy, planner=planner)  # type: ignore[arg-type]
-        self.built += 1
-        return Cursor(row.id, m)
-
-    def _advance(self, m: Mission, t: float, background: bool = False) -> None:
-        """Advance in slices of about 5 ms, each taking the gate as the stepping thread does
-        (after any waiting request or command), so a long replay never holds up live missions
-        or the API; a checkpoint being built (in the background) also waits between slices
-        while any request is replaying."""
-        chunk = 1.0
-        while m.now < t and not m.done:
-            while background and self._asking and not self._closing:
-                time.sleep(_YIELD_S)
-            if self._closing:
-                raise Closing
-            t0 = perf_counter()
-            with self.gate.stepping():  # the stepper's side: requests and commands go first
-                m.advance(min(t, m.now + chunk))
-            took = perf_counter() - t0
-            chunk = chunk * 2 if took < _SLICE_S / 4 else max(chunk / 2, 1e-3)
-            time.sleep(0)  # and the live missions' stepper gets its turn between slices
-        with self.gate:
-            m.advance(t)  # events at exactly `t` too, even when the engine already stands there
-
-    def _advance_with(
-        self, cursor: Cursor, actions: list[dict[str, Any]], t: float, background: bool = False
-    ) -> None:
-        """Replay `cursor` to `t`, every action and event at `t` included."""
-        m = cursor.engine
-        while cursor.applied < len(actions) and float(actions[cursor.applied]["t"]) <= t:
-            action = actions[cursor.applied]
-            self._advance(m, float(action["t"]), background)
-            with self.gate:
-                m.apply(action)
-            cursor.applied += 1
-        self._advance(m, t, background)
-
-    def _read(
-        self, cursor: Cursor
-    ) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]], int]:
-        """The cursor's snapshot, its latest auctions, its deliveries and its event count."""
-        m = cursor.engine
-        with self.gate:
-            state = stream_state(m.snapshot())
-            records = m.auctions
-            older = [a for a in records[:-FEED_AUCTIONS] if a.status == "open"]
-            auctions = [auction_dict(a.to_dict()) for a in older + records[-FEED_AUCTIONS:]]
-            log = m.events
-            for ev in log[cursor.scanned :]:
-                if ev.kind == "delivered":
-                    cursor.deliveries.append(ev.to_dict())
-            cursor.scanned = len(log)
-            assert state is not None
-            return state, auctions, list(cursor.deliveries), len(log)
+    def worker_rss(self) -> int:
+        """The worker's resident memory in bytes (0 without one; Linux's /proc)."""
+        pid = self.worker_pid
+        if pid is None:
+            return 0
+        try:
+            pages = int(Path(f"/proc/{pid}/statm").read_text().split()[1])
+        except (OSError, ValueError, IndexError):
+            return 0
+        return pages * os.sysconf("SC_PAGE_SIZE")
