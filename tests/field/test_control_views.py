@@ -15,7 +15,7 @@ from typing import Any
 
 import pytest
 
-from app.live.runner import MissionRunner
+from app.live.streaming import note_auction, note_event
 from engine.messages import Heartbeat
 from engine.scenario import Scenario
 from field import control
@@ -56,10 +56,9 @@ def record(status: str) -> dict[str, Any]:
 
 
 def test_a_record_changed_after_its_event_is_streamed(mission: control.FieldMission) -> None:
-    runner = MissionRunner.__new__(MissionRunner)  # only its per-mission bookkeeping
     lm = SimpleNamespace(hub=SimpleNamespace(viewers={"a viewer"}), dirty_auctions=set(), outbox=[])
-    mission.subscribe(lambda ev: runner._on_event(lm, ev))  # type: ignore[arg-type]
-    mission.watch_auctions(lambda aid: runner._on_auction(lm, aid))  # type: ignore[arg-type]
+    mission.subscribe(lambda ev: note_event(lm, ev))  # type: ignore[arg-type]
+    mission.watch_auctions(lambda aid: note_auction(lm, aid))  # type: ignore[arg-type]
     rec = mission.fleet.recorder
     rec.auctions["scout-1/1"] = record("open")
     rec.events.append({"t": 1.0, "event": "auction_opened", "data": {"auction_id": "scout-1/1"}})
