@@ -96,7 +96,7 @@ class FieldMission(MissionViews):
         """What this mission's processes dropped or refused from the bus: frames from
         strangers or in another's name, invalid reports (mission control), each agent's own
         count, and requests the world service refused its members."""
-        return {**self.fleet.recorder.rejections(), "world_refused": self.fleet.world.refused}
+        return {**self.fleet.intake.rejections(), "world_refused": self.fleet.world.refused}
 
     def subscribe(self, fn: Callable[[Event], None]) -> None:
         self.log.subscribe(fn)
@@ -117,7 +117,7 @@ class FieldMission(MissionViews):
             self._end("timeout")
 
     def _take_in(self) -> None:
-        rec = self.fleet.recorder
+        rec = self.fleet.intake
         with rec.lock:
             fresh = rec.events[self._seen_events :]
             self._seen_events = len(rec.events)
@@ -152,7 +152,7 @@ class FieldMission(MissionViews):
 
     # --- views ------------------------------------------------------------------------------
     def _robot(self, name: str, full: bool) -> dict[str, Any]:
-        hb = self.fleet.recorder.heartbeats.get(name)
+        hb = self.fleet.intake.heartbeats.get(name)
         proc = self.fleet.procs.get(name)
         ended = self._down is not None and name not in self._down  # (its process ended with it)
         alive = proc is not None and (ended or proc.popen.poll() is None)
@@ -198,7 +198,7 @@ class FieldMission(MissionViews):
         recs = [a.to_dict() for a in self.auctions]
         bids = sum(len(a.get("bids") or ()) for a in recs)
         outcomes = [w["outcome"] for a in recs for w in a.get("awards") or ()]
-        messages = self.fleet.recorder.messages
+        messages = self.fleet.intake.messages
         return tally(self.terrain, self.auctions, bids, outcomes.count("declined"), messages)
 
     def metrics(self) -> dict[str, Any]:

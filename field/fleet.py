@@ -1,4 +1,4 @@
-"""Mission control's side of a field mission on this machine: the world service, a recorder of
+"""Mission control's side of a field mission on this machine: the world service, the intake of
 everything said on the mission's key space, one agent process per robot, and the faults
 (`--kill NAME@T`: SIGKILL; `--add TYPE@T`: a new process; `--restart NAME@T`: a rejoin).
 
@@ -25,7 +25,7 @@ from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.team import check_type, robot_name, robot_type
 from field.drain import Drain
-from field.intake import Recorder
+from field.intake import Intake
 from field.link import Link
 from field.refusals import check_field
 from field.transport import Stalls, open_session
@@ -82,26 +82,26 @@ class Fleet:
         # the mission's authority: only the processes it issues credentials to are heard
         self.authority = Authority(self.mission)
         self.link = Link(self.session, self.authority.control, f"mission {self.mission}")
-        self.recorder = Recorder(self.link)
+        self.intake = Intake(self.link)
         self._subs = [
             Drain(
                 self.session.declare_subscriber,
                 messages_selector(self.mission),
-                self.recorder.on_message,
-                "recorder messages",
+                self.intake.on_message,
+                "intake messages",
             ),
             Drain(  # events and auction records: none may be lost
                 self.session.declare_subscriber,
                 f"{PREFIX}/{self.mission}/event/*",
-                self.recorder.on_report,
-                "recorder reports",
+                self.intake.on_report,
+                "intake reports",
                 lossless=True,
             ),
         ]
         self.world = WorldService(
-            self.link, scenario, seed, policy, speed, self.recorder.on_world_event
+            self.link, scenario, seed, policy, speed, self.intake.on_world_event
         )
-        self.recorder.on_heard = self.world.note_heard
+        self.intake.on_heard = self.world.note_heard
         self.procs: dict[str, Proc] = {}
         self.history: list[Proc] = []
         self.operator: Proc | None = None
@@ -317,7 +317,7 @@ def run_fleet(
                 progress(fleet.world.status())
             time.sleep(0.02)
         st = fleet.world.status()
-        rec = fleet.recorder
+        rec = fleet.intake
         with rec.lock:
             auctions = list(rec.auctions.values())
             out = {
