@@ -13,7 +13,7 @@ from engine.errors import CommandRejected
 from engine.robots.scout import site_task_id
 
 if TYPE_CHECKING:
-    from engine.field import SiteState
+    from engine.terrain import SiteState
     from engine.world import World
 
 TASK_TYPES = ("excavate", "transport")

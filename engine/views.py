@@ -14,15 +14,15 @@ from engine.policies import coalition_partner
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
-    from engine.field import Field
     from engine.interface import AuctionView
     from engine.robots import Robot
     from engine.scenario import Scenario
+    from engine.terrain import Terrain
     from engine.world import World
 
 
 def tally(
-    terrain: Field, auctions: Sequence[AuctionView], bids: int, declines: int, messages: int
+    terrain: Terrain, auctions: Sequence[AuctionView], bids: int, declines: int, messages: int
 ) -> dict[str, int]:
     """The counters a frame carries: the terrain's, the auctions' and the bus's."""
     return {
@@ -59,7 +59,7 @@ class MissionViews(ABC):
 
     @property
     @abstractmethod
-    def terrain(self) -> Field:
+    def terrain(self) -> Terrain:
         """The sites and piles, minerals on the ground, cells scanned, deliveries."""
 
     @abstractmethod
@@ -125,7 +125,7 @@ class SimulatedViews(MissionViews):
         robots: dict[str, Robot]
 
     @property
-    def terrain(self) -> Field:
+    def terrain(self) -> Terrain:
         return self.ctx.field
 
     def robot_dicts(self, full: bool) -> list[dict[str, Any]]:

@@ -19,13 +19,13 @@ from typing import TYPE_CHECKING, Any
 
 from engine.errors import CommandRejected, UnknownRobotError
 from engine.events import Event, EventLog
-from engine.field import Field
 from engine.geometry import point_along
 from engine.interface import MissionInterface, MissionMode
 from engine.placement import TaskPlacement, place_task
 from engine.policies import resolve_policy
 from engine.scenario import Scenario
 from engine.team import robot_type
+from engine.terrain import Terrain
 from engine.views import MissionViews, tally
 from field.fleet import Fleet
 from field.intake import RecordView
@@ -79,7 +79,7 @@ class FieldMission(MissionViews):
         return self.fleet.world.policy
 
     @property
-    def terrain(self) -> Field:
+    def terrain(self) -> Terrain:
         return self.fleet.world.field
 
     @property
@@ -238,7 +238,7 @@ class FieldMission(MissionViews):
         return name
 
     def disable_robot(self, name: str, mode: str = "graceful") -> None:
-        """Field mode has one way to stop a robot: its process is SIGKILLed (abrupt)."""
+        """Terrain mode has one way to stop a robot: its process is SIGKILLed (abrupt)."""
         self._check_running()
         proc = self.fleet.procs.get(name)
         if proc is None:

@@ -1,6 +1,6 @@
 """The world service: the field's ground truth, served to the robots over Zenoh queries.
 
-Mission control runs it. It holds the engine's own `Field` (the sites and their piles, the
+Mission control runs it. It holds the engine's own `Terrain` (the sites and their piles, the
 minerals on the ground, the scanned cells, the deliveries) on a clock of wall time × speed,
 and answers one operation per query on `regolith/<mission>/world` (docs/field.md lists
 them). A robot learns of a site only by asking what lies within its scan radius along the
@@ -21,12 +21,12 @@ from typing import Any
 import numpy as np
 import simpy
 
-from engine.field import Field, SiteState
 from engine.geometry import first_entry
 from engine.observer import Observer
 from engine.policies import resolve_policy
 from engine.scenario import ROBOT_TYPES, Scenario
 from engine.team import robot_type, roster, start_positions
+from engine.terrain import SiteState, Terrain
 from engine.world import generate_world
 from field.drain import Drain
 from field.link import Link
@@ -48,8 +48,8 @@ class MissionClock:
         return max(0.0, (time.time() - self.epoch) * self.speed)
 
 
-class _FieldEnv:
-    """What `engine.field.Field` reads of its environment: the time and an event factory."""
+class _TerrainEnv:
+    """What `engine.terrain.Terrain` reads of its environment: the time and an event factory."""
 
     def __init__(self, clock: MissionClock) -> None:
         self._clock = clock
@@ -94,7 +94,7 @@ class WorldService:
         self.world = generate_world(scenario, world_rng)
         self.clock = MissionClock(time.time(), speed)
         self.observer = Observer(self.clock.now)
-        self.field = Field(self.world, _FieldEnv(self.clock), self.observer)  # type: ignore[arg-type]
+        self.field = Terrain(self.world, _TerrainEnv(self.clock), self.observer)  # type: ignore[arg-type]
         self.roster: dict[str, str] = roster(scenario.team)
         starts = start_positions(self.world, scenario.start_spread, len(self.roster))
         self.starts = dict(zip(self.roster, starts, strict=True))
