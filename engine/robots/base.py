@@ -447,7 +447,7 @@ def _on_announce(robot: Robot, msg: Announce) -> None:
     rounds = robot.rounds
     if aid in rounds:  # a re-announcement: only the round is new
         rounds[aid] = msg.round
-        if bidder is not None and aid in bidder.open_auctions:
+        if bidder is not None and aid in bidder.biddable:
             bidder.consider_bids()
         return
     rounds[aid] = msg.round
