@@ -130,7 +130,7 @@ class Mission(SimulatedViews):
         self.ctx.observer.log.subscribe(fn)
 
     def watch_auctions(self, fn: Callable[[str], None]) -> None:
-        """Never called: every change of an engine record comes with an event naming it."""
+        """`fn` is never called: every change of an engine record comes with an event naming it."""
 
     def advance(self, until: float) -> None:
         """Process every event up to simulation time `until` (clamped to the mission's end)."""
