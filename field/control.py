@@ -67,7 +67,7 @@ class FieldMission(MissionViews):
     # --- what the runner reads --------------------------------------------------------------
     @property
     def now(self) -> float:
-        f = self.fleet.world.field
+        f = self.terrain
         return float(f.finished_at) if f.finished_at is not None else self.fleet.now()
 
     @property
@@ -111,7 +111,7 @@ class FieldMission(MissionViews):
         if self.done:
             return
         self._take_in()
-        if self.fleet.world.field.finished.triggered:
+        if self.terrain.finished.triggered:
             self._end("completed")
         elif self.fleet.now() >= self.scenario.max_time_s:
             self._end("timeout")
@@ -138,7 +138,7 @@ class FieldMission(MissionViews):
 
     def _end(self, status: str) -> None:
         self.status = status
-        makespan = self.fleet.world.field.finished_at
+        makespan = self.terrain.finished_at
         self.log.emit("mission_ended", status=status, makespan_s=makespan)
         self.close()
 
