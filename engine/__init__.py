@@ -5,6 +5,7 @@ See docs/engine-api.md. Nothing here imports the web or database layers.
 
 from engine.errors import CommandRejected, EngineError, UnknownRobotError
 from engine.events import Event
+from engine.interface import AuctionView, MissionInterface, MissionMode
 from engine.mission import Mission, run_mission
 from engine.policies import (
     POLICIES,
@@ -27,10 +28,13 @@ from engine.scenario import (
 __all__ = [
     "POLICIES",
     "POLICY_NAMES",
+    "AuctionView",
     "CommandRejected",
     "EngineError",
     "Event",
     "Mission",
+    "MissionInterface",
+    "MissionMode",
     "Policy",
     "PolicyMeta",
     "Scenario",

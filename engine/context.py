@@ -1,7 +1,7 @@
 """What one run shares: its services (the clock, the bus, the planner, the policy, the
-liveness board, the robots present), the physical field and the observer.
+liveness board, the robots present), the terrain and the observer.
 
-Robots reach each other only through the bus. The field (`engine.field`: site piles, minerals
+Robots reach each other only through the bus. The terrain (`engine.terrain`: site piles, minerals
 on the ground, scanned cells, deliveries) is shared because it is physical: a robot at a site
 sees the pile and the robots beside it. The observer (`engine.observer`: the event log,
 auction records, counters) is bookkeeping for the researcher; no robot decision reads it.
@@ -16,7 +16,6 @@ import simpy
 
 from engine.auction_rules import AuctionRecord
 from engine.energy import Located, Powered
-from engine.field import Field
 from engine.global_view import HeldTask, RobotState, Whereabouts
 from engine.liveness import Liveness
 from engine.messages import Location, Message, TaskType
@@ -24,6 +23,7 @@ from engine.observer import Observer
 from engine.planning import PathPlanner, PlanningError
 from engine.scenario import Protocol as ProtocolSettings
 from engine.scenario import Scenario
+from engine.terrain import Terrain
 from engine.world import World
 
 if TYPE_CHECKING:
@@ -104,7 +104,7 @@ class MissionContext:
         self.bus: EmbeddedBus  # set by the mission once the bus exists
         self.liveness = Liveness()
         self.robots: dict[str, Body] = {}
-        self.field = Field(world, env, self.observer)
+        self.field = Terrain(world, env, self.observer)
         # the realism options (docs/model.md): None while off, so the reference model pays nothing
         self.durations: Durations | None = None
         self.docks: Plant | None = None

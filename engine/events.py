@@ -38,8 +38,13 @@ class EventLog:
 
     def append(self, kind: str, data: dict[str, Any]) -> Event:
         """`emit` with the payload already a dict (taken over, not copied)."""
+        return self.append_at(self._clock(), kind, data)
+
+    def append_at(self, t: float, kind: str, data: dict[str, Any]) -> Event:
+        """`append` of an event that happened at `t`, elsewhere: field mode's mission control
+        logs what its robots report, each at the time it happened on the robot's clock."""
         events = self.events
-        ev = Event(len(events), self._clock(), kind, data)
+        ev = Event(len(events), t, kind, data)
         events.append(ev)
         counts = self.counts
         counts[kind] = counts.get(kind, 0) + 1

@@ -15,12 +15,12 @@ if TYPE_CHECKING:
     import simpy
 
     from engine.bidding import OpenAuction
-    from engine.field import Field
     from engine.geometry import Point
     from engine.messages import TaskType
     from engine.observer import Observer
     from engine.planning import PathPlanner
     from engine.scenario import Scenario
+    from engine.terrain import Terrain
     from engine.world import World
 
 
@@ -103,7 +103,7 @@ class GlobalView(Protocol):
     scenario: Scenario
     world: World
     env: simpy.Environment
-    field: Field
+    field: Terrain
     observer: Observer
     planner: PathPlanner
 

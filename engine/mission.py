@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import simpy
@@ -19,27 +19,31 @@ from engine.auction_rules import AuctionRecord
 from engine.context import MissionContext
 from engine.errors import CommandRejected, UnknownRobotError
 from engine.events import Event
+from engine.interface import MissionInterface, MissionMode
 from engine.messages import PolicyChange
 from engine.metrics import mission_metrics
+from engine.placement import free_point, place_task
 from engine.planning import OmplPlanner, PathPlanner, StraightLinePlanner
 from engine.policies import Policy, PolicyContext, make_policy, policy_class, resolve_policy
 from engine.realism_setup import install_realism, make_bus
-from engine.robots import OPERATOR, Excavator, Hauler, Operator, Robot, Scout
-from engine.robots.scout import site_task_id
+from engine.robots import OPERATOR, Operator, Robot
 from engine.scenario import ROBOT_TYPES, Scenario
-from engine.spiral import spiral_routes
 from engine.tangent_planner import TangentPlanner
-from engine.views import MissionViews
+from engine.team import build_robot, check_type, robot_name, roster, scout_routes, start_positions
+from engine.views import SimulatedViews
 from engine.world import World, generate_world
 
 PlannerKind = Literal["ompl", "exact", "straight"]
 PLANNERS: tuple[PlannerKind, ...] = ("ompl", "exact", "straight")
 """RRT-Connect (the study's planner, the default), exact shortest paths over the tangent
 graph, straight lines (obstacle-free tests only). docs/benchmarks.md compares the first two."""
-_CLASSES: dict[str, type[Robot]] = {"scout": Scout, "excavator": Excavator, "hauler": Hauler}
 
 
-class Mission(MissionViews):
+class Mission(SimulatedViews):
+    """A simulated mission (`engine.interface.MissionInterface`)."""
+
+    mode: MissionMode = "simulated"
+
     def __init__(
         self,
         scenario: Scenario,
@@ -67,26 +71,15 @@ class Mission(MissionViews):
         ctx.bus = make_bus(ctx, bus_rng)
         self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
         self._counts: dict[str, int] = {t: 0 for t in ROBOT_TYPES}
-        team = scenario.team
-        n_total = team.scouts + team.excavators + team.haulers
-        starts = iter(self._start_positions(n_total))
-        routes = {
-            f"scout-{i + 1}": r
-            for i, r in enumerate(spiral_routes(self.world.grid, self.world.plant, team.scouts))
-        }
-        self.routes = routes
+        team = roster(scenario.team)
+        self.routes = scout_routes(self.world, scenario.team.scouts)
+        starts = self._start_positions(len(team))
         robots: list[Robot] = [self.operator]
-        for rtype, n in (
-            ("scout", team.scouts),
-            ("excavator", team.excavators),
-            ("hauler", team.haulers),
-        ):
-            for _ in range(n):
-                robots.append(self._make_robot(rtype, next(starts)))
+        robots.extend(self._make_robot(t, p) for t, p in zip(team.values(), starts, strict=True))
         ctx.liveness.introduce_all(0.0)
-        roster = {r.name: r.rtype for r in robots}  # the team that starts together knows itself
+        known = {r.name: r.rtype for r in robots}  # the team that starts together knows itself
         for r in robots:
-            r.peers = dict(roster)
+            r.peers = dict(known)
         for r in robots:
             r.start()
         self._stalled = self.env.event()
@@ -97,16 +90,7 @@ class Mission(MissionViews):
 
     # --- construction helpers -------------------------------------------------------------
     def _start_positions(self, n: int) -> list[tuple[float, float]]:
-        """Robots start on a small ring around the plant, evenly spread."""
-        px, py = self.world.plant
-        rad = self.scenario.start_spread
-        out = []
-        for i in range(n):
-            a = 2 * math.pi * i / max(1, n)
-            x = min(max(px + rad * math.cos(a), 0.0), self.world.width)
-            y = min(max(py + rad * math.sin(a), 0.0), self.world.height)
-            out.append((round(x, 6), round(y, 6)))
-        return out
+        return start_positions(self.world, self.scenario.start_spread, n)
 
     def _make_policy(self, name: str) -> Policy:
         """The policy with the run's policy stream; a baseline also gets the global view."""
@@ -116,13 +100,8 @@ class Mission(MissionViews):
 
     def _make_robot(self, rtype: str, pos: tuple[float, float]) -> Robot:
         self._counts[rtype] += 1
-        name = f"{rtype}-{self._counts[rtype]}"
-        speed = getattr(self.scenario.speeds, rtype)
-        robot: Robot
-        if rtype == "scout":
-            robot = Scout(name, self.ctx, pos, speed, self.routes)
-        else:
-            robot = _CLASSES[rtype](name, self.ctx, pos, speed)
+        name = robot_name(rtype, self._counts[rtype])
+        robot = build_robot(name, rtype, self.ctx, pos, self.routes)
         self.robots[name] = self.ctx.robots[name] = robot
         return robot
 
@@ -149,6 +128,9 @@ class Mission(MissionViews):
 
     def subscribe(self, fn: Callable[[Event], None]) -> None:
         self.ctx.observer.log.subscribe(fn)
+
+    def watch_auctions(self, fn: Callable[[str], None]) -> None:
+        """`fn` is never called: every change of an engine record comes with an event naming it."""
 
     def advance(self, until: float) -> None:
         """Process every event up to simulation time `until` (clamped to the mission's end)."""
@@ -200,17 +182,9 @@ class Mission(MissionViews):
     # --- reading ------------------------------------------------------------------------
     def metrics(self) -> dict[str, Any]:
         """The run's figures: a pure function of scenario, seed, planner and actions."""
-        out: dict[str, Any] = {
-            "policy": self.initial_policy,
-            "seed": self.seed,
-            "scenario": self.scenario.name,
-            "status": self.status,
-            "completed": self.status == "completed",
-            "makespan_s": self.ctx.field.finished_at,
-            "sim_time_s": self.now,
-        }
+        out = self.run_figures()
         out.update(mission_metrics(self.ctx))
-        out["policy_changes"] = sum(1 for a in self.actions if a["kind"] == "set_policy")
+        out["policy_changes"] = self.policy_changes()
         return out
 
     # --- operator commands --------------------------------------------------------------
@@ -282,9 +256,11 @@ class Mission(MissionViews):
 
     def add_robot(self, rtype: str, position: tuple[float, float] | None = None) -> str:
         self._check_running()
-        if rtype not in _CLASSES:
-            raise CommandRejected("type: must be one of scout, excavator, hauler")
-        pos = self._free_point(position, "position") if position is not None else None
+        try:
+            check_type(rtype)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
+        pos = free_point(self.world, position, "position") if position is not None else None
         if pos is None:
             pos = self._start_positions(1)[0]
         self._record("add_robot", type=rtype, position=None if position is None else list(pos))
@@ -295,38 +271,14 @@ class Mission(MissionViews):
 
     def inject_task(self, task_type: str = "excavate", location: Iterable[float] = ()) -> str:
         self._check_running()
-        if task_type not in ("excavate", "transport"):
-            raise CommandRejected("type: must be 'excavate' or 'transport'")
-        x, y = self._free_point(tuple(location), "location")  # type: ignore[arg-type]
-        task_id = f"{task_type}@{x:.3f},{y:.3f}"
-        if task_type == "excavate":
-            # snap to a site the robots know of, so the operator can point roughly at one
-            near = [
-                s
-                for s in self.ctx.field.sites
-                if s.found_at is not None
-                and math.hypot(s.x - x, s.y - y) <= self.scenario.scan_radius
-            ]
-            if near:
-                s = min(near, key=lambda s: (math.hypot(s.x - x, s.y - y), s.id))
-                x, y, task_id = s.x, s.y, site_task_id(s.x, s.y)
+        task = place_task(
+            self.world, self.ctx.field.sites, self.scenario.scan_radius, task_type, location
+        )
+        x, y = task.x, task.y
         self._record("inject_task", type=task_type, location=[x, y])
-        rec = self.operator.house.open(task_type, (x, y), task_id, kind="operator")  # type: ignore[arg-type]
+        rec = self.operator.house.open(task_type, (x, y), task.task_id, kind="operator")  # type: ignore[arg-type]
         self.ctx.observer.emit("task_injected", auction_id=rec.id, task_type=task_type, x=x, y=y)
         return rec.id
-
-    def _free_point(self, p: tuple[float, ...], field: str) -> tuple[float, float]:
-        if len(p) != 2 or not all(isinstance(v, int | float) and math.isfinite(v) for v in p):
-            raise CommandRejected(f"{field}: must be two finite numbers [x, y]")
-        x, y = float(p[0]), float(p[1])
-        if not (0 <= x <= self.world.width and 0 <= y <= self.world.height):
-            raise CommandRejected(
-                f"{field}: ({x:g}, {y:g}) is outside the area "
-                f"0..{self.world.width:g} × 0..{self.world.height:g}"
-            )
-        if not self.world.is_free(x, y):
-            raise CommandRejected(f"{field}: ({x:g}, {y:g}) lies in a crater")
-        return x, y
 
     def apply(self, action: dict[str, Any]) -> Any:
         """Replay one recorded action at its simulation time."""
@@ -375,3 +327,7 @@ def run_mission(
         return m.run()
     finally:
         m.close()
+
+
+if TYPE_CHECKING:  # the type checker holds `Mission` to the interface it declares
+    _implements: type[MissionInterface] = Mission

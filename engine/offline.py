@@ -31,10 +31,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from engine.central import assign_greedily
-from engine.field import NEAR
 from engine.foresight import SnappingPlanner, legs, predict_found
 from engine.geometry import Point, dist
 from engine.schedule import Job, Problem, Schedule, Unit, optimize
+from engine.terrain import NEAR
 
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord

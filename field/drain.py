@@ -5,7 +5,7 @@ channel; when the callback falls behind, the channel fills and Zenoh's network t
 on it, and that thread is the one that reads every other link of the session too. A callback
 falls behind easily: it needs the GIL, which an agent's clock loop holds most of the time at
 100x. Seen in field chaos runs: mission control's two network threads parked on its
-recorder's full channel, every socket's receive queue full, the agents' puts and queries
+intake's full channel, every socket's receive queue full, the agents' puts and queries
 waiting on mission control, the world service unasked, and the whole mission stalled for
 good, with every process idle.
 

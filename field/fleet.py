@@ -1,4 +1,4 @@
-"""Mission control's side of a field mission on this machine: the world service, a recorder of
+"""Mission control's side of a field mission on this machine: the world service, the intake of
 everything said on the mission's key space, one agent process per robot, and the faults
 (`--kill NAME@T`: SIGKILL; `--add TYPE@T`: a new process; `--restart NAME@T`: a rejoin).
 
@@ -22,10 +22,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from engine.robots import OPERATOR
-from engine.scenario import REALISM_OPTIONS, ROBOT_TYPES, Scenario
+from engine.scenario import ROBOT_TYPES, Scenario
+from engine.team import check_type, robot_name, robot_type
 from field.drain import Drain
-from field.intake import Recorder
+from field.intake import Intake
 from field.link import Link
+from field.refusals import check_field
 from field.transport import Stalls, open_session
 from field.trust import Authority, Credential
 from field.wire import (
@@ -38,7 +40,6 @@ from field.wire import (
 )
 from field.world_service import WorldService
 
-"""The scenario's realism options (docs/model.md); field mode runs none of them."""
 INJECT_WAIT_S = 10.0
 """How long (wall) mission control waits for the operator's console to take a task."""
 
@@ -69,12 +70,7 @@ class Fleet:
         listen_host: str = "127.0.0.1",
         stall: str | None = None,
     ) -> None:
-        on = scenario.realism_on
-        if on:  # (the agents build their robots without them)
-            raise ValueError(
-                f"scenario.{on[0]}: field mode runs without the realism options "
-                f"({', '.join(REALISM_OPTIONS)})"
-            )
+        check_field(scenario=scenario, policy=policy, speed=speed)  # before any process starts
         self.mission = mission or f"m{uuid.uuid4().hex[:10]}"
         self.port = port or free_port()
         self.endpoint = f"tcp/{listen_host}:{self.port}"
@@ -86,26 +82,26 @@ class Fleet:
         # the mission's authority: only the processes it issues credentials to are heard
         self.authority = Authority(self.mission)
         self.link = Link(self.session, self.authority.control, f"mission {self.mission}")
-        self.recorder = Recorder(self.link)
+        self.intake = Intake(self.link)
         self._subs = [
             Drain(
                 self.session.declare_subscriber,
                 messages_selector(self.mission),
-                self.recorder.on_message,
-                "recorder messages",
+                self.intake.on_message,
+                "intake messages",
             ),
             Drain(  # events and auction records: none may be lost
                 self.session.declare_subscriber,
                 f"{PREFIX}/{self.mission}/event/*",
-                self.recorder.on_report,
-                "recorder reports",
+                self.intake.on_report,
+                "intake reports",
                 lossless=True,
             ),
         ]
         self.world = WorldService(
-            self.link, scenario, seed, policy, speed, self.recorder.on_world_event
+            self.link, scenario, seed, policy, speed, self.intake.on_world_event
         )
-        self.recorder.on_heard = self.world.note_heard
+        self.intake.on_heard = self.world.note_heard
         self.procs: dict[str, Proc] = {}
         self.history: list[Proc] = []
         self.operator: Proc | None = None
@@ -119,7 +115,7 @@ class Fleet:
         return self.world.clock.now()
 
     def spawn(self, name: str) -> Proc:
-        rtype = name.rsplit("-", 1)[0]
+        rtype = robot_type(name)
         self._counts[rtype] = max(self._counts.get(rtype, 0), int(name.rsplit("-", 1)[1]))
         proc = Proc(name, self._start(name), self.now())
         self.procs[name] = proc
@@ -130,8 +126,7 @@ class Fleet:
     def credential(self, name: str) -> Credential:
         """A new credential for `name` (a new generation: the last one's stops counting),
         for an agent started here or on another machine (docs/field.md)."""
-        role = OPERATOR if name == OPERATOR else name.rsplit("-", 1)[0]
-        return self.authority.issue(name, role)
+        return self.authority.issue(name, robot_type(name))
 
     def _start(self, name: str) -> subprocess.Popen[bytes]:
         """An agent process; its credential goes in on its standard input (no file, no
@@ -194,9 +189,8 @@ class Fleet:
         raise ValueError("inject_task: the operator console did not answer")
 
     def add(self, rtype: str) -> str:
-        if rtype not in ROBOT_TYPES:
-            raise ValueError(f"type: must be one of {', '.join(ROBOT_TYPES)}")
-        name = f"{rtype}-{self._counts[rtype] + 1}"
+        check_type(rtype)
+        name = robot_name(rtype, self._counts[rtype] + 1)
         self.spawn(name)
         return name
 
@@ -323,7 +317,7 @@ def run_fleet(
                 progress(fleet.world.status())
             time.sleep(0.02)
         st = fleet.world.status()
-        rec = fleet.recorder
+        rec = fleet.intake
         with rec.lock:
             auctions = list(rec.auctions.values())
             out = {

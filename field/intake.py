@@ -83,7 +83,7 @@ class ReportedEvent(_Strict):
 
 
 @dataclass
-class Recorder:
+class Intake:
     """Everything mission control hears: protocol messages (checked, counted), events and
     auction records (the latest version of each auction), and what the agents dropped."""
 

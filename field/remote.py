@@ -1,7 +1,7 @@
 """What an agent's robot sees of the world outside its own process: the field, through the
 world service, and the robots beside it, through their agents.
 
-`RemoteField` has the methods of `engine.field.Field` that robots call; each becomes a query
+`RemoteField` has the methods of `engine.terrain.Terrain` that robots call; each becomes a query
 to the world service. `PeerBody` stands in `ctx.robots` for a robot in another process: what
 a robot standing beside it can see (where it is, whether it is alive, what it waits for) and
 do with it (arrive to be loaded, empty a bucket into its bin), each a query to that robot's
@@ -13,8 +13,8 @@ from __future__ import annotations
 import base64
 from typing import TYPE_CHECKING, Any, Protocol
 
-from engine.field import NEAR, GroundMineral
 from engine.geometry import Point, dist
+from engine.terrain import NEAR, GroundMineral
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -76,7 +76,7 @@ class RemoteSite:
 
 
 class RemoteField:
-    """`engine.field.Field` as robots use it, served by the world service."""
+    """`engine.terrain.Terrain` as robots use it, served by the world service."""
 
     sites: tuple[RemoteSite, ...] = ()  # a robot never sees the list of all sites
 

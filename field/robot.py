@@ -8,10 +8,8 @@ from typing import Any
 from engine.auction_rules import AuctionRecord
 from engine.context import MissionContext
 from engine.geometry import Point
-from engine.robots import Excavator, Hauler, Operator, Robot, Scout
-from engine.spiral import spiral_routes
-
-_CLASSES: dict[str, type[Robot]] = {"excavator": Excavator, "hauler": Hauler}
+from engine.robots import Robot
+from engine.team import build_robot, scout_routes
 
 
 class FieldContext(MissionContext):
@@ -30,13 +28,6 @@ class FieldContext(MissionContext):
 
 
 def make_robot(name: str, rtype: str, ctx: MissionContext, pos: Point) -> Robot:
-    """The robot `name` of type `rtype` at `pos` (the operator's console: an auctioneer with
-    no body; a scout: with the spiral routes of the whole scouting team)."""
-    if rtype == "operator":
-        return Operator(name, ctx, pos, 1.0)
-    speed = getattr(ctx.scenario.speeds, rtype, 1.0)
-    if rtype == "scout":
-        world = ctx.world
-        routes = spiral_routes(world.grid, world.plant, ctx.scenario.team.scouts)
-        return Scout(name, ctx, pos, speed, {f"scout-{i + 1}": r for i, r in enumerate(routes)})
-    return _CLASSES[rtype](name, ctx, pos, speed)
+    """The robot `name` as a simulated mission builds it (`engine.team`)."""
+    routes = scout_routes(ctx.world, ctx.scenario.team.scouts) if rtype == "scout" else {}
+    return build_robot(name, rtype, ctx, pos, routes)

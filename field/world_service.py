@@ -1,6 +1,6 @@
 """The world service: the field's ground truth, served to the robots over Zenoh queries.
 
-Mission control runs it. It holds the engine's own `Field` (the sites and their piles, the
+Mission control runs it. It holds the engine's own `Terrain` (the sites and their piles, the
 minerals on the ground, the scanned cells, the deliveries) on a clock of wall time × speed,
 and answers one operation per query on `regolith/<mission>/world` (docs/field.md lists
 them). A robot learns of a site only by asking what lies within its scan radius along the
@@ -21,13 +21,13 @@ from typing import Any
 import numpy as np
 import simpy
 
-from engine.field import Field, SiteState
 from engine.geometry import first_entry
 from engine.observer import Observer
 from engine.policies import resolve_policy
-from engine.robots import OPERATOR
 from engine.scenario import ROBOT_TYPES, Scenario
-from engine.world import World, generate_world
+from engine.team import robot_type, roster, start_positions
+from engine.terrain import SiteState, Terrain
+from engine.world import generate_world
 from field.drain import Drain
 from field.link import Link
 from field.trust import Certificate, Rejected, Rejections
@@ -48,8 +48,8 @@ class MissionClock:
         return max(0.0, (time.time() - self.epoch) * self.speed)
 
 
-class _FieldEnv:
-    """What `engine.field.Field` reads of its environment: the time and an event factory."""
+class _TerrainEnv:
+    """What `engine.terrain.Terrain` reads of its environment: the time and an event factory."""
 
     def __init__(self, clock: MissionClock) -> None:
         self._clock = clock
@@ -61,18 +61,6 @@ class _FieldEnv:
 
     def event(self) -> simpy.Event:
         return self._env.event()
-
-
-def start_positions(world: World, spread: float, n: int) -> list[tuple[float, float]]:
-    """The ring around the plant the team starts on (as `Mission._start_positions`)."""
-    px, py = world.plant
-    out = []
-    for i in range(n):
-        a = 2 * math.pi * i / max(1, n)
-        x = min(max(px + spread * math.cos(a), 0.0), world.width)
-        y = min(max(py + spread * math.sin(a), 0.0), world.height)
-        out.append((round(x, 6), round(y, 6)))
-    return out
 
 
 def site_dict(s: SiteState) -> dict[str, Any]:
@@ -106,20 +94,10 @@ class WorldService:
         self.world = generate_world(scenario, world_rng)
         self.clock = MissionClock(time.time(), speed)
         self.observer = Observer(self.clock.now)
-        self.field = Field(self.world, _FieldEnv(self.clock), self.observer)  # type: ignore[arg-type]
-        team = scenario.team
-        names = [
-            f"{rtype}-{i + 1}"
-            for rtype, n in (
-                ("scout", team.scouts),
-                ("excavator", team.excavators),
-                ("hauler", team.haulers),
-            )
-            for i in range(n)
-        ]
-        starts = start_positions(self.world, scenario.start_spread, len(names))
-        self.roster: dict[str, str] = {n: n.rsplit("-", 1)[0] for n in names}
-        self.starts = dict(zip(names, starts, strict=True))
+        self.field = Terrain(self.world, _TerrainEnv(self.clock), self.observer)  # type: ignore[arg-type]
+        self.roster: dict[str, str] = roster(scenario.team)
+        starts = start_positions(self.world, scenario.start_spread, len(self.roster))
+        self.starts = dict(zip(self.roster, starts, strict=True))
         self.spawned: dict[str, int] = {}
         self.loads: dict[str, int] = {}  # minerals on board, by robot (bucket or bin)
         # `once` id -> the answer of the operation carried out under it (False for one
@@ -337,7 +315,7 @@ class WorldService:
         return {"id": g.id, "x": g.x, "y": g.y, "dropped_at": g.dropped_at}
 
     def _spawn(self, name: str) -> dict[str, Any]:
-        rtype = "operator" if name == OPERATOR else name.rsplit("-", 1)[0]
+        rtype = robot_type(name)
         if rtype not in (*ROBOT_TYPES, "operator"):
             raise ValueError(f"name: {name!r} must be scout-N, excavator-N or hauler-N")
         times = self.spawned.get(name, 0)

@@ -18,8 +18,10 @@ import typer
 
 from app.cli.errors import fail
 from app.cli.progress import ProgressLine
-from engine.policies import POLICIES, resolve_policy
+from engine.policies import resolve_policy
 from engine.scenario import ROBOT_TYPES, ScenarioError, load_scenario, reference_scenario
+from engine.team import robot_type
+from field.refusals import FieldRefusal, check_field
 
 _AT = re.compile(r"^(?P<what>[a-z]+(?:-\d+)?)@(?P<t>[0-9]*\.?[0-9]+)$")
 
@@ -142,8 +144,10 @@ def fleet_run(
         pol = resolve_policy(policy)
     except ValueError as exc:
         fail("fleet run", f"--policy: {exc}")
-    if not POLICIES[pol].decentralized:
-        fail("fleet run", f"--policy: {pol} is centralized; field mode runs decentralized ones")
+    try:
+        check_field(policy=pol)
+    except FieldRefusal as exc:
+        fail("fleet run", f"--policy: {exc.reason}")
     adds = _at("--add", add, "TYPE")
     for rtype, _t in adds:
         if rtype not in ROBOT_TYPES:
@@ -243,7 +247,7 @@ def fleet_up(
 
     for name in issue:
         try:
-            rtype = check_segment(name, "--issue").rsplit("-", 1)[0]
+            rtype = robot_type(check_segment(name, "--issue"))
         except ValueError as exc:
             fail("fleet up", str(exc))
         if rtype not in ROBOT_TYPES:

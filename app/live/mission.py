@@ -11,7 +11,7 @@ from typing import Any
 
 from app.live.hub import Hub
 from app.live.recorder import Recorder
-from engine import Event, Mission
+from engine import Event, MissionInterface
 
 #: Events per batch; a mission this far ahead of a batch still being written waits for it,
 #: so "max" speed never outruns the database and an operator waits behind little.
@@ -23,7 +23,7 @@ class LiveMission:
     """A mission being stepped, with its pacing and streaming state."""
 
     id: int
-    mission: Mission
+    mission: MissionInterface
     hub: Hub
     recorder: Recorder
     speed: float | None  # None: as fast as possible

@@ -9,11 +9,9 @@ has stored, so a batch holds only new rows and the auctions whose outcome change
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
-
-class _Record(Protocol):
-    def to_dict(self) -> dict[str, Any]: ...
+from engine import AuctionView, MissionInterface
 
 
 @dataclass
@@ -65,25 +63,27 @@ class Stored:
 
 
 class Recorder:
-    """Diffs one engine mission against what was already written."""
+    """Diffs one mission (simulated or field) against what was already written."""
 
-    def __init__(self, mission_id: int, mission: Any, stored: Stored | None = None) -> None:
+    def __init__(
+        self, mission_id: int, mission: MissionInterface, stored: Stored | None = None
+    ) -> None:
         stored = stored or Stored()
         self.mission_id = mission_id
         self.mission = mission
         self._events = stored.events
         self._bids = dict(stored.bids)
         self._awards = {aid: list(outcomes) for aid, outcomes in stored.awards.items()}
-        self._index: dict[str, _Record] = {}
+        self._index: dict[str, AuctionView] = {}
         self._seen_auctions = 0
         # Open auctions and pending offers may still change (after a restart: check them all once).
         self._watch: set[str] = set(stored.bids)
 
-    def _auction(self, auction_id: str) -> _Record | None:
+    def _auction(self, auction_id: str) -> AuctionView | None:
         auctions = self.mission.auctions
         if len(auctions) != self._seen_auctions or auction_id not in self._index:
             for rec in auctions[self._seen_auctions :]:
-                self._index[rec.to_dict()["id"] if not hasattr(rec, "id") else rec.id] = rec
+                self._index[rec.id] = rec
             self._seen_auctions = len(auctions)
         return self._index.get(auction_id)
 

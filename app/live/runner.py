@@ -25,15 +25,14 @@ from app.live.hub import Hub
 from app.live.mission import BATCH_EVENTS, LiveMission
 from app.live.modes import dropped_of
 from app.live.recorder import Batch, Recorder
-from app.live.records import auction_dict, describe, failed_record
+from app.live.records import describe, failed_record
 from app.live.stepper import Stepper
+from app.live.streaming import note_auction, note_event, publish_pending
 from app.settings import Settings
-from engine import Event, Mission
+from engine import MissionInterface
 
 log = logging.getLogger("regolith.runner")
 
-#: Event kinds not forwarded to viewers: raw bus traffic (bids arrive as `auction` updates).
-QUIET_KINDS = frozenset({"message", "bid"})
 TICK_S = 0.01
 
 
@@ -136,7 +135,7 @@ class MissionRunner:
     def add(
         self,
         mission_id: int,
-        mission: Mission,
+        mission: MissionInterface,
         *,
         speed: float | None,
         paused: bool,
@@ -156,11 +155,8 @@ class MissionRunner:
             row=row,
         )
         lm.reanchor()
-        mission.subscribe(lambda ev: self._on_event(lm, ev))
-        # a field mission's records change in reports of their own, not only with an event
-        watch = getattr(mission, "watch_auctions", None)
-        if watch is not None:
-            watch(lambda aid: self._on_auction(lm, aid))
+        mission.subscribe(lambda ev: note_event(lm, ev))
+        mission.watch_auctions(lambda aid: note_auction(lm, aid))
         self.live[mission_id] = lm
         log.info(
             "mission %s live at t=%.1f (%s)",
@@ -225,37 +221,9 @@ class MissionRunner:
     def running_count(self) -> int:
         return sum(1 for lm in self.live.values() if not lm.finishing)
 
-    @staticmethod
-    def _on_event(lm: LiveMission, ev: Event) -> None:
-        """Engine callback, under the gate: note what to stream (the loop sends it)."""
-        if not lm.hub.viewers:
-            return
-        aid = ev.data.get("auction_id")
-        if aid is not None:
-            lm.dirty_auctions.add(aid)
-        if ev.kind not in QUIET_KINDS:
-            lm.outbox.append(ev)
-
-    @staticmethod
-    def _on_auction(lm: LiveMission, auction_id: str) -> None:
-        """An auction's record changed (under the gate): stream it at the next tick."""
-        if lm.hub.viewers:
-            lm.dirty_auctions.add(auction_id)
-
     def publish_pending(self, lm: LiveMission) -> None:
-        """Stream the events and auction changes noted since the last call (under the gate)."""
-        events, lm.outbox = lm.outbox, []
-        for ev in events:
-            lm.hub.publish({"type": "event", "event": ev.to_dict()})
-        if not lm.dirty_auctions:
-            return
-        dirty, lm.dirty_auctions = lm.dirty_auctions, set()
-        if not lm.hub.viewers:
-            return
-        by_id = {rec.id: rec for rec in lm.mission.auctions if rec.id in dirty}
-        for aid in sorted(dirty):
-            if aid in by_id:
-                lm.hub.publish({"type": "auction", "auction": auction_dict(by_id[aid].to_dict())})
+        """Stream what `lm` produced since the last call (under the gate)."""
+        publish_pending(lm)
 
     def _write(self, lm: LiveMission, changes: dict[str, Any] | None = None) -> asyncio.Task[None]:
         """Write what `lm` produced since the last write (under the gate), after that write:

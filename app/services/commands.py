@@ -7,13 +7,16 @@ is checked here first so the 422 names the field; the engine stays the final jud
 from __future__ import annotations
 
 import asyncio
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.live.mission import LiveMission
 from app.live.modes import is_field
 from app.services.errors import Conflict, Invalid, LimitExceeded, NotFound
 from app.services.missions import MissionService
 from engine import CommandRejected
+
+if TYPE_CHECKING:
+    from field.control import FieldMission
 
 Point = tuple[float, float]
 
@@ -84,7 +87,7 @@ class RobotCommands:
     async def inject_task(self, mission_id: int, task_type: str, location: Point) -> str:
         lm = await self.missions.live(mission_id)
         if is_field(lm.mission):
-            return await self._inject_over_the_wire(lm, task_type, location)
+            return await self._inject_over_the_wire(lm, lm.mission, task_type, location)
         with self.gate:
             _inside(lm, location, ("body", "location"))
             try:
@@ -95,11 +98,12 @@ class RobotCommands:
         await self._commit(lm, action)
         return str(auction_id)
 
-    async def _inject_over_the_wire(self, lm: LiveMission, task_type: str, location: Point) -> str:
+    async def _inject_over_the_wire(
+        self, lm: LiveMission, mission: FieldMission, task_type: str, location: Point
+    ) -> str:
         """A field mission's operator task goes to its console as a query: a round trip of
         up to 10 s while the console is busy, made on a worker thread without the gate (it
         held the event loop, every request and live frame of every mission, meanwhile)."""
-        mission: Any = lm.mission
         with self.gate:
             _inside(lm, location, ("body", "location"))
             try:

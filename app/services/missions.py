@@ -34,7 +34,7 @@ from app.services.scenario_limits import check_size
 from app.services.singleflight import SingleFlight
 from app.services.store import Store
 from app.settings import Settings
-from engine import Mission, Scenario, reference_scenario
+from engine import Mission, MissionInterface, Scenario, reference_scenario
 
 
 def speed_value(speed: Speed) -> float | None:
@@ -181,7 +181,7 @@ class MissionService:
 
     def _build_field(
         self, scenario: Scenario, seed: int, policy: str, speed: float | None
-    ) -> tuple[Any, dict[str, Any]]:
+    ) -> tuple[MissionInterface, dict[str, Any]]:
         """A field mission: the world service and one agent process per robot, started
         here; the runner steps it like an engine mission (field/control.py)."""
         from field.control import FieldMission

@@ -25,7 +25,6 @@ import simpy
 from engine.auction_house import AuctionHouse
 from engine.auction_rules import AUCTION_KINDS, Allocation
 from engine.bidding import OpenAuction
-from engine.field import NEAR
 from engine.geometry import Point, dist
 from engine.messages import (
     Ack,
@@ -50,6 +49,7 @@ from engine.robots.charging import Charging
 from engine.robots.core import Assignment
 from engine.robots.mobility import Mobility, Motion
 from engine.robots.recovery import Recovery
+from engine.terrain import NEAR
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -447,7 +447,7 @@ def _on_announce(robot: Robot, msg: Announce) -> None:
     rounds = robot.rounds
     if aid in rounds:  # a re-announcement: only the round is new
         rounds[aid] = msg.round
-        if bidder is not None and aid in bidder.open_auctions:
+        if bidder is not None and aid in bidder.biddable:
             bidder.consider_bids()
         return
     rounds[aid] = msg.round

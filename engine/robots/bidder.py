@@ -78,8 +78,8 @@ class Bidder:
 
     def reset(self) -> None:
         """Forget everything heard (a new life after a failure)."""
-        self.open_auctions: dict[str, OpenAuction] = {}  # the ones I can serve
-        self._in_order: list[OpenAuction] | None = None  # open_auctions by opening order
+        self.biddable: dict[str, OpenAuction] = {}  # announced, open, and I can serve them
+        self._in_order: list[OpenAuction] | None = None  # biddable by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
         self._refused: bool | None = None  # -inf bid in every auction of _in_order (cache)
         self._quiet_on: list[OpenAuction] | None = None  # busy with nothing to send
@@ -93,7 +93,7 @@ class Bidder:
         """An auction I can serve opened. Its place in `_in_order` is found by bisection
         rather than by sorting again: hundreds of robots hear each of hundreds of open
         auctions at scale, and a sort per announcement per robot was a tenth of a run."""
-        self.open_auctions[info.auction_id] = info
+        self.biddable[info.auction_id] = info
         order = self._in_order
         if order is None or info.auctioneer in self.robot.down:
             return
@@ -106,7 +106,7 @@ class Bidder:
 
     def forget_auction(self, auction_id: str) -> OpenAuction | None:
         self.robot.rounds.pop(auction_id, None)
-        info = self.open_auctions.pop(auction_id, None)
+        info = self.biddable.pop(auction_id, None)
         order = self._in_order
         if info is None or order is None or info.auctioneer in self.robot.down:
             return info
@@ -123,7 +123,7 @@ class Bidder:
             self._refused = None
             down = self.robot.down
             self._in_order = sorted(
-                (a for a in self.open_auctions.values() if a.auctioneer not in down),
+                (a for a in self.biddable.values() if a.auctioneer not in down),
                 key=_OPENING,
             )
         return self._in_order
@@ -144,7 +144,7 @@ class Bidder:
         """An auction whose auctioneer no longer lists it has closed (its Close was missed)."""
         board = self.ctx.liveness
         latest: dict[str, Heartbeat | None] = {}
-        for aid, info in list(self.open_auctions.items()):
+        for aid, info in list(self.biddable.items()):
             who = info.auctioneer
             hb = (
                 latest[who]
@@ -156,7 +156,7 @@ class Bidder:
 
     def auctioneer_down(self, peer: str) -> None:
         """A silent or departed auctioneer's auctions are forgotten, its award let go."""
-        for aid, info in list(self.open_auctions.items()):
+        for aid, info in list(self.biddable.items()):
             if info.auctioneer == peer:
                 self.forget_auction(aid)
         if self.reserved is not None and self.reserved.auctioneer == peer:
@@ -166,7 +166,7 @@ class Bidder:
     def on_award(self, msg: Award) -> None:
         if msg.winner != self.robot.name:
             return
-        info = self.open_auctions.get(msg.auction_id)
+        info = self.biddable.get(msg.auction_id)
         bid = self.my_bids.get(msg.auction_id)
         if (
             info is None

@@ -10,9 +10,9 @@ from collections import deque
 from typing import TYPE_CHECKING, Any, Protocol
 
 from engine.energy import Powered
-from engine.field import NEAR
 from engine.geometry import Point, dist
 from engine.planning import PlanningError
+from engine.terrain import NEAR
 
 if TYPE_CHECKING:
     from engine.context import MissionContext

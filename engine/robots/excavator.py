@@ -8,16 +8,16 @@ import simpy
 
 from engine.auction_rules import Allocation
 from engine.bidding import OpenAuction
-from engine.field import NEAR
 from engine.geometry import Point, dist
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
 from engine.robots.rendezvous import Taker
 from engine.robots.transport import Transports
+from engine.terrain import NEAR
 
 if TYPE_CHECKING:
-    from engine.field import SiteState
+    from engine.terrain import SiteState
 
 
 def transports_due(

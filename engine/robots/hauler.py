@@ -7,7 +7,6 @@ from typing import Any
 import simpy
 
 from engine.bidding import OpenAuction
-from engine.field import NEAR
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
 from engine.policies import coalition_partner
@@ -15,6 +14,7 @@ from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
 from engine.robots.rendezvous import Giver
+from engine.terrain import NEAR
 
 SENSE = 2.0
 """How far a hauler sees a mineral lying on the ground while it drives."""

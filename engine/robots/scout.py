@@ -12,7 +12,7 @@ from engine.robots.search import Search
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
-    from engine.field import SiteState
+    from engine.terrain import SiteState
 
 
 def site_task_id(x: float, y: float) -> str:

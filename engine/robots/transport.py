@@ -14,18 +14,18 @@ import math
 from typing import TYPE_CHECKING, Any, Protocol
 
 from engine.energy import Powered
-from engine.field import NEAR
 from engine.geometry import Point, dist, path_length
 from engine.planning import PlanningError
+from engine.terrain import NEAR
 
 if TYPE_CHECKING:
     from engine.auction_house import AuctionHouse
     from engine.context import MissionContext
-    from engine.field import SiteState
     from engine.robots.charging import Charging
     from engine.robots.core import Assignment
     from engine.robots.mobility import Mobility
     from engine.robots.recovery import Recovery
+    from engine.terrain import SiteState
 
 
 class TransportingRobot(Powered, Protocol):

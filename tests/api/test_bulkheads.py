@@ -19,6 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.live.recorder import Recorder
+from app.live.streaming import note_event
 from engine import Event
 from tests.api.conftest import LiveServer, make_settings, recv_until, wait_for
 
@@ -155,7 +156,7 @@ def test_a_hostile_mission_ends_alone(server: LiveServer, plan: dict[str, Any]) 
             lm.mission.close()
             lm.mission = HostileMission(plan, snap)
             lm.recorder = Recorder(mid, lm.mission)
-            lm.mission.subscribe(lambda ev: runner._on_event(lm, ev))
+            lm.mission.subscribe(lambda ev: note_event(lm, ev))
             lm.paused, lm.speed = False, None
         runner.stepper.wake()
         with server.ws(mid):  # a viewer: the frame path runs for it too

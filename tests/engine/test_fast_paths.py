@@ -47,13 +47,13 @@ def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> 
 
 
 def _plain_note(self: Bidder, info: OpenAuction) -> None:
-    self.open_auctions[info.auction_id] = info
+    self.biddable[info.auction_id] = info
     self._in_order = None
 
 
 def _plain_forget(self: Bidder, auction_id: str) -> OpenAuction | None:
     self.robot.rounds.pop(auction_id, None)
-    info = self.open_auctions.pop(auction_id, None)
+    info = self.biddable.pop(auction_id, None)
     if info is not None:
         self._in_order = None
     return info

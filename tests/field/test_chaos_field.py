@@ -149,7 +149,7 @@ class OneHolder:
         self.read = 0  # events taken in so far (the world service shares this process's GIL)
 
     def check(self) -> None:
-        m, rec = self.m, self.m.fleet.recorder
+        m, rec = self.m, self.m.fleet.intake
         ended, suspected = self.ended, self.suspected
         with rec.lock:
             beats = dict(rec.heartbeats)
@@ -188,7 +188,7 @@ class OneHolder:
         self.since = {k: v for k, v in self.since.items() if k in current}
 
     def _fail(self, what: str, names: list[str]) -> None:
-        rec = self.m.fleet.recorder
+        rec = self.m.fleet.intake
         with rec.lock:
             said = [
                 (round(float(e["t"]), 1), e.get("by"), e["event"], e["data"])
@@ -202,21 +202,21 @@ class OneHolder:
 
 def _stuck(m: FieldMission, seed: int) -> str:
     """Why a mission did not finish: where the minerals are, what each robot last said."""
-    with m.fleet.recorder.lock:
+    with m.fleet.intake.lock:
         beats = {
             n: (round(hb.t), hb.state, hb.load, hb.tasks)
-            for n, hb in m.fleet.recorder.heartbeats.items()
+            for n, hb in m.fleet.intake.heartbeats.items()
         }
     loads = {n: k for n, k in m.fleet.world.loads.items() if k}
-    with m.fleet.recorder.lock:
+    with m.fleet.intake.lock:
         pickups = [
-            (round(e["t"]), e["data"]) for e in m.fleet.recorder.events if e["event"] == "pickup"
+            (round(e["t"]), e["data"]) for e in m.fleet.intake.events if e["event"] == "pickup"
         ]
     last = {n: [p for p in pickups if p[1].get("from_robot") == n][-2:] for n in loads}
-    with m.fleet.recorder.lock:  # what happened around them (re-announcements only repeat)
+    with m.fleet.intake.lock:  # what happened around them (re-announcements only repeat)
         trail = [
             (round(e["t"]), e.get("by"), e["event"], e["data"])
-            for e in m.fleet.recorder.events
+            for e in m.fleet.intake.events
             if e["event"] != "auction_reannounced"
             and any(n == e.get("by") or n in str(e["data"]) for n in loads)
         ][-40:]

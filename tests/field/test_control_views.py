@@ -1,5 +1,5 @@
 """What `FieldMission` makes of what mission control hears, without agent processes: a
-stand-in fleet whose recorder (the real `field.intake.Recorder`) is fed by hand.
+stand-in fleet whose intake (the real `field.intake.Intake`) is fed by hand.
 
 - An auction record changes in a report of its own, often just after the event naming it;
   the live runner must stream the change, not only the record as it stood at the event.
@@ -15,11 +15,11 @@ from typing import Any
 
 import pytest
 
-from app.live.runner import MissionRunner
+from app.live.streaming import note_auction, note_event
 from engine.messages import Heartbeat
 from engine.scenario import Scenario
 from field import control
-from field.intake import Recorder
+from field.intake import Intake
 from field.odometer import Odometer, along
 
 
@@ -27,7 +27,7 @@ class StandInFleet:
     """`Fleet`'s surface that `FieldMission` reads, and no processes."""
 
     def __init__(self, scenario: Scenario, seed: int, policy: str, speed: float, **_: Any) -> None:
-        self.recorder = Recorder(link=None)  # type: ignore[arg-type]  # (fed by hand)
+        self.intake = Intake(link=None)  # type: ignore[arg-type]  # (fed by hand)
         finished = SimpleNamespace(triggered=False)
         field = SimpleNamespace(finished=finished, finished_at=None)
         self.world = SimpleNamespace(world=None, field=field, policy=policy, starts={})
@@ -56,11 +56,10 @@ def record(status: str) -> dict[str, Any]:
 
 
 def test_a_record_changed_after_its_event_is_streamed(mission: control.FieldMission) -> None:
-    runner = MissionRunner.__new__(MissionRunner)  # only its per-mission bookkeeping
     lm = SimpleNamespace(hub=SimpleNamespace(viewers={"a viewer"}), dirty_auctions=set(), outbox=[])
-    mission.subscribe(lambda ev: runner._on_event(lm, ev))  # type: ignore[arg-type]
-    mission.watch_auctions(lambda aid: runner._on_auction(lm, aid))  # type: ignore[arg-type]
-    rec = mission.fleet.recorder
+    mission.subscribe(lambda ev: note_event(lm, ev))  # type: ignore[arg-type]
+    mission.watch_auctions(lambda aid: note_auction(lm, aid))  # type: ignore[arg-type]
+    rec = mission.fleet.intake
     rec.auctions["scout-1/1"] = record("open")
     rec.events.append({"t": 1.0, "event": "auction_opened", "data": {"auction_id": "scout-1/1"}})
     mission.advance(10.0)
@@ -105,7 +104,7 @@ def test_distance_follows_the_announced_route() -> None:
 
 
 def test_the_mission_reports_heard_distances(mission: control.FieldMission) -> None:
-    rec = mission.fleet.recorder
+    rec = mission.fleet.intake
     rec.heartbeats["hauler-1"] = beat(0.0, 0.0, [(0.0, 0.0), (6.0, 8.0)])
     mission.advance(10.0)
     rec.heartbeats["hauler-1"] = beat(6.0, 8.0, [], t=10.0)
@@ -128,7 +127,7 @@ def test_robots_running_at_the_end_are_not_stored_as_failed(
     fleet = mission.fleet
     fleet.procs = {"hauler-1": Proc(None), "hauler-2": Proc(-9)}  # hauler-2: SIGKILLed before
     for name in fleet.procs:
-        fleet.recorder.heartbeats[name] = beat(1.0, 2.0, [])
+        fleet.intake.heartbeats[name] = beat(1.0, 2.0, [])
     assert {r["name"]: r["state"] for r in mission.robot_list()} == {
         "hauler-1": "moving",
         "hauler-2": "failed",

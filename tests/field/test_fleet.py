@@ -45,7 +45,7 @@ def _carrying(fleet: Fleet, robot: str) -> dict[str, Any] | None:
     """The auction of the transport `robot` is carrying a mineral for, if its latest heartbeat
     (under 5 s old, when it set off for the plant: the trip takes far longer, so the kill
     cannot race the delivery) says it has one on board."""
-    rec = fleet.recorder
+    rec = fleet.intake
     with rec.lock:
         hb = rec.heartbeats.get(robot)
         if hb is None or hb.load == 0 or not hb.tasks or fleet.now() - hb.t > 5.0:
@@ -90,8 +90,8 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     assert killed is not None and added == "excavator-5"
     time.sleep(0.3)  # the last records in flight
     # the mineral on board fell to the ground and another hauler took it to the plant
-    with fleet.recorder.lock:
-        events = [(e["event"], e["data"]) for e in fleet.recorder.events]
+    with fleet.intake.lock:
+        events = [(e["event"], e["data"]) for e in fleet.intake.events]
     dropped = [d for k, d in events if k == "mineral_dropped" and d["robot"] == "hauler-2"]
     assert len(dropped) == 1, dropped
     picked = [
@@ -99,7 +99,7 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     ]
     assert len(picked) == 1 and picked[0]["robot"] != "hauler-2", picked
     assert sum(k == "delivered" for k, _ in events) == 64
-    auctions = list(fleet.recorder.auctions.values())
+    auctions = list(fleet.intake.auctions.values())
     # the killed hauler's task was auctioned again, and someone else carried it
     again = [a for a in auctions if a["reauction_of"] == killed["id"]]
     assert again, f"{killed['task_id']} held by hauler-2 was never re-auctioned"
@@ -109,4 +109,4 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     won = {a["allocated_to"] for a in auctions if a["task_type"] == "excavate"}
     assert "excavator-5" in won, f"excavation winners: {won}"
     # what mission control heard was valid: nothing malformed on the wire
-    assert fleet.recorder.malformed == 0 and fleet.recorder.messages > 1000
+    assert fleet.intake.malformed == 0 and fleet.intake.messages > 1000

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 from typing import Any
 
 from app.services.commands import RobotCommands
-from field.control import Injection
+from engine.placement import TaskPlacement
 from tests import aio
 
 CONSOLE_S = 1.0
@@ -30,18 +30,18 @@ class SlowConsoleMission:
     def world_map(self) -> dict[str, Any]:
         return {"width": 100.0, "height": 100.0}
 
-    def plan_injection(self, task_type: str, location: Any) -> Injection:
+    def plan_injection(self, task_type: str, location: Any) -> TaskPlacement:
         assert self.gate.locked()  # checked against the mission's state: under the gate
-        return Injection(task_type, float(location[0]), float(location[1]), "transport@1,2")
+        return TaskPlacement(task_type, float(location[0]), float(location[1]), "transport@1,2")
 
-    def send_injection(self, injection: Injection) -> str:
+    def send_injection(self, injection: TaskPlacement) -> str:
         self.gate_free_while_sending = self.gate.acquire(timeout=0.5)
         if self.gate_free_while_sending:
             self.gate.release()
         time.sleep(CONSOLE_S)  # the console is busy
         return "operator/1"
 
-    def record_injection(self, injection: Injection, auction_id: str) -> str:
+    def record_injection(self, injection: TaskPlacement, auction_id: str) -> str:
         assert self.gate.locked()
         self.actions.append({"kind": "inject_task", "args": {"type": injection.task_type}})
         return auction_id

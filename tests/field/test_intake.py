@@ -15,7 +15,7 @@ from app.live.recorder import auction_row
 from app.live.records import auction_dict
 from engine import Mission
 from engine.scenario import reference_scenario
-from field.intake import Recorder
+from field.intake import Intake
 from field.trust import Rejected
 
 JUNK = st.recursive(
@@ -43,8 +43,8 @@ def _real_records() -> list[dict[str, Any]]:
 REAL = _real_records()
 
 
-def _take(data: Any, sender: str = "excavator-1") -> Recorder | None:
-    rec = Recorder(_Link())  # type: ignore[arg-type]
+def _take(data: Any, sender: str = "excavator-1") -> Intake | None:
+    rec = Intake(_Link())  # type: ignore[arg-type]
     try:
         rec.take(sender, data)
     except (Rejected, ValidationError, ValueError, TypeError):
@@ -52,7 +52,7 @@ def _take(data: Any, sender: str = "excavator-1") -> Recorder | None:
     return rec
 
 
-def _storable(rec: Recorder) -> None:
+def _storable(rec: Intake) -> None:
     for a in rec.auctions.values():
         auction_row(1, a)
         auction_dict(a)
@@ -82,7 +82,7 @@ def test_a_real_record_with_one_field_spoiled(i: int, key: str, value: Any) -> N
 def test_a_record_of_another_auctioneer_is_refused_and_a_real_one_kept() -> None:
     real = next(r for r in REAL if r["auctioneer"].startswith("scout"))
     with pytest.raises(Rejected):
-        Recorder(_Link()).take("hauler-1", {"kind": "auction", "record": real})  # type: ignore[arg-type]
+        Intake(_Link()).take("hauler-1", {"kind": "auction", "record": real})  # type: ignore[arg-type]
     rec = _take({"kind": "auction", "record": real}, real["auctioneer"])
     assert rec is not None and list(rec.auctions) == [real["id"]]
     for bad in ({"id": "forged/1"}, {**real, "awards": [{}]}, {**real, "opened_at": "abc"}):

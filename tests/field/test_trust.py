@@ -199,17 +199,17 @@ def test_a_frame_counts_for_the_key_its_receiver_expects_not_the_key_it_came_und
 
 
 def test_a_report_is_signed_for_its_signers_own_event_key() -> None:
-    from field.intake import Recorder
+    from field.intake import Intake
     from field.link import Link
     from field.wire import event_key
 
     authority = Authority("m1")
-    recorder = Recorder(Link(None, authority.control, "test"))  # type: ignore[arg-type]
+    intake = Intake(Link(None, authority.control, "test"))  # type: ignore[arg-type]
     hauler = Sealer(authority.issue("hauler-1", "hauler"))
     world = Sealer(authority.control)
-    opener = recorder.link.opener
-    assert opener.admit(recorder._report_channel, hauler.seal(event_key("m1", "hauler-1"), b"{}"))
-    assert opener.admit(recorder._report_channel, world.seal(event_key("m1", "world"), b"{}"))
+    opener = intake.link.opener
+    assert opener.admit(intake._report_channel, hauler.seal(event_key("m1", "hauler-1"), b"{}"))
+    assert opener.admit(intake._report_channel, world.seal(event_key("m1", "world"), b"{}"))
     # in another robot's name: refused, whatever key it is put on
-    assert not opener.admit(recorder._report_channel, hauler.seal(event_key("m1", "h-2"), b"{}"))
+    assert not opener.admit(intake._report_channel, hauler.seal(event_key("m1", "h-2"), b"{}"))
     assert opener.rejections.by_reason == {"forged": 1}

@@ -1,5 +1,6 @@
-"""The physical state of the field: the sites and their piles, the minerals lying on the
-ground, the cells scanned, the deliveries at the plant, and whether the mission is finished.
+"""The terrain, the physical state of the mission's area: the sites and their piles, the
+minerals lying on the ground, the cells scanned, the deliveries at the plant, and whether the
+mission is finished.
 
 It is shared because it is physical: a robot senses what lies where it stands (the pile at
 its site, a mineral at its feet). What happens here is reported to the observer, in the
@@ -48,7 +49,7 @@ class GroundMineral:
     dropped_at: float
 
 
-class Field:
+class Terrain:
     def __init__(self, world: World, env: simpy.Environment, observer: Observer) -> None:
         self.world = world
         self.env = env
