@@ -173,7 +173,7 @@ def _handover_times(seed: int, policy: str) -> list[tuple[float, str, str]]:
     how=st.sampled_from(["abrupt", "graceful", "stall"]),
     stall_s=st.floats(1.0, 120.0),
 )
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_a_mineral_is_in_exactly_one_place_whoever_fails_during_a_hand_over(
     seed, policy, which, before, who, how, stall_s
 ):
