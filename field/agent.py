@@ -5,7 +5,8 @@ The agent asks the world service for its place in the mission (scenario, seed, p
 position, the starting roster, the mission's clock), builds the engine's own robot class on a
 `MissionContext` whose bus is Zenoh (`field.transport.ZenohBus`), whose field is the world
 service (`field.remote.RemoteField`) and whose other robots are stand-ins answered by their
-own agents (`field.remote.PeerBody`), and runs it on simulation time = wall time × speed.
+own agents (`field.bodies`: their looks and the hand-over exchange with them), and runs it on
+simulation time = wall time × speed.
 """
 
 from __future__ import annotations
@@ -26,10 +27,11 @@ from engine.mission import make_planner
 from engine.policies import POLICIES, PolicyContext, make_policy
 from engine.scenario import Scenario
 from engine.world import generate_world
+from field.bodies import PeerBody, caller_refused, look, place_robot, serve_body
 from field.drain import Drain
 from field.link import Link
-from field.remote import PeerBody, RemoteField, look, serve_body
-from field.robot import FieldContext, make_robot
+from field.remote import RemoteField
+from field.robot import FieldContext
 from field.transport import Faults, Stalls, ZenohBus, open_session
 from field.trust import CONTROL, Credential, Opened, Rejected
 from field.wire import (
@@ -139,16 +141,7 @@ class Agent:
         )
         rtype, roster = spawn["rtype"], dict(spawn["roster"])
         pos = (float(spawn["pos"][0]), float(spawn["pos"][1]))
-        robot = make_robot(name, rtype, ctx, pos)
-        self.robot = robot
-        ctx.robots[name] = robot
-        for peer, ptype in roster.items():
-            if peer != name:
-                ctx.liveness.add(peer)
-                ctx.robots[peer] = PeerBody(self, peer, ptype)  # type: ignore[assignment]
-        ctx.liveness.introduce_all(self.env.now)
-        roster[name] = rtype
-        robot.peers = roster
+        self.robot = robot = place_robot(self, ctx, name, rtype, pos, roster)
         self._body = Drain(
             self.session.declare_queryable, body_key(mission, name), self._on_body, "body"
         )
@@ -236,38 +229,27 @@ class Agent:
         return None
 
     def _on_body(self, query: Any) -> None:
-        """Another robot looks at this one, or acts on it (Zenoh's thread). Only a member
-        of the mission is answered, and a call only from the robot it names as the caller."""
+        """Another robot looks at this one, or says something of a hand-over (Zenoh's thread).
+        Only a member of the mission is answered, and a message only from its signer."""
         key = body_key(self.mission, self.name)
         got = self.link.take_query(query, key)
         if got is None:
             return
         opened, req = got
-        caller = req.get("caller")
-        if req.get("op") != "look" and (
-            not isinstance(caller, dict) or caller.get("name") != opened.sender
-        ):
-            refused = {"ok": False, "error": "caller: not the signer"}
-            self.link.reply(query, key, req, refused)
+        refused = caller_refused(req, opened)
+        if refused is not None:
+            self.link.reply(query, key, req, {"ok": False, "error": refused})
             return
-        if isinstance(caller, dict):
-            caller["rtype"] = opened.cert.role  # what it is, not what it says it is
         reply: dict[str, Any] = {"ok": False, "error": BUSY}  # the caller asks again
         if self.lock.acquire(timeout=QUERY_TIMEOUT_S / 2):
             try:
-                reply = self._serve_body(req, query.payload.to_bytes())
+                reply = serve_body(self, self.robot, self.ctx.robots, req, query.payload.to_bytes())
             except (KeyError, TypeError, ValueError, IndexError) as exc:
                 reply = {"ok": False, "error": str(exc)[:200]}
             finally:
                 self.lock.release()
             self.bus.inbox.ready.set()  # the clock loop: what the call triggered is due now
         self.link.reply(query, key, req, reply)
-
-    def _serve_body(self, req: dict[str, Any], frame: bytes) -> dict[str, Any]:
-        reply = serve_body(self, self.robot, self.ctx.robots, req, frame)
-        if req.get("op") != "look":
-            self.step += 1  # what the call did may change what the robots look like
-        return reply
 
     # --- what arrives -----------------------------------------------------------------------
     def _note_peer(self, msg: Message) -> None:

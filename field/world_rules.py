@@ -4,9 +4,9 @@ The world service is the ground truth of a field mission, so each operation is c
 against the signed identity of the robot that asks (`field.trust.Certificate`) before it is
 carried out: reads are any member's; an operation that changes the world only the robot it
 concerns may ask, and only when the world's own record allows it (a delivery only by a
-hauler that holds a mineral, a hand-over only with the giving excavator's signed consent, a
-pile only ever one mineral smaller and only by its digger, a find only of a site the world
-showed that scout, a scan only of a cell that exists).
+hauler that holds a mineral, a hand-over only with the giving excavator's signed consent
+(its `Transfer` message), a pile only ever one mineral smaller and only by its digger, a find
+only of a site the world showed that scout, a scan only of a cell that exists).
 """
 
 from __future__ import annotations
@@ -90,7 +90,8 @@ def _dig(ws: WorldService, a: dict[str, Any], me: str) -> None:
 
 
 def _consented(ws: WorldService, a: dict[str, Any], me: str) -> None:
-    """The giving excavator's own signed `take` query to this hauler, with this id."""
+    """The giving excavator's own signed `Transfer` hand-over message to this hauler (a
+    `handover` query, `field.bodies.FieldRendezvous`), with this id."""
     src = a.get("src")
     if ws.loads.get(str(src), 0) <= 0:
         raise Refused(f"src: {src!r} carries nothing")
@@ -98,8 +99,8 @@ def _consented(ws: WorldService, a: dict[str, Any], me: str) -> None:
         frame = base64.b64decode(str(a.get("consent", "")), validate=True)
         opened = ws.link.opener.open(body_key(ws.mission, me), frame)
         req = opened.json()
-        method, args = req["args"]["method"], req["args"]["args"]
+        op, msg, once = req["op"], req["args"]["msg"], req["args"]["once"]
     except (Rejected, binascii.Error, ValueError, KeyError, TypeError):
-        raise Refused(f"consent: no signed take from {src!r}") from None
-    if opened.sender != src or method != "take" or list(args)[1:2] != [a.get("once")]:
-        raise Refused(f"consent: no signed take from {src!r}")
+        raise Refused(f"consent: no signed transfer from {src!r}") from None
+    if opened.sender != src or (op, msg, once) != ("handover", "transfer", a.get("once")):
+        raise Refused(f"consent: no signed transfer from {src!r}")

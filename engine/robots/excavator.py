@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import simpy
 
@@ -12,7 +12,19 @@ from engine.geometry import Point, dist
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
-from engine.robots.rendezvous import Taker
+from engine.robots.rendezvous import (
+    Arrived,
+    Handover,
+    Here,
+    Left,
+    Loading,
+    LocalRendezvous,
+    Ready,
+    Rendezvous,
+    Sight,
+    Transfer,
+    Witness,
+)
 from engine.robots.transport import Transports
 from engine.terrain import NEAR
 
@@ -49,10 +61,11 @@ class Excavator(Robot):
         self.minerals_dug = 0
         self.waiting_for: str | None = None  # transport task id of the mineral in my bucket
         self._arrival: simpy.Event | None = None
-        self.partner_here: Taker | None = None
+        self.partner_here: str | None = None  # my coalition partner, standing by
         # transports auctioned ahead of their minerals (a lead policy), next mineral first
         self.ahead: list[str] = []
-        self.early: dict[str, Taker] = {}  # haulers that came for one of them and stand by
+        self.early: dict[str, str] = {}  # haulers that came for one of them and stand by
+        self.rendezvous: Rendezvous = LocalRendezvous(self.ctx.robots)  # (field: its agent's)
         self.transfer_now_s = self.ctx.scenario.timing.transfer_s  # the transfer under way
         self.transports = Transports(self)
 
@@ -68,9 +81,8 @@ class Excavator(Robot):
         yield from self.mobility.go_to(a.location)
         site = self.ctx.field.site_at(a.location)
         if self.ahead:
-            for r in self.ctx.robots.values():
-                if r.rtype == "hauler" and dist(r.pos, self.pos) <= NEAR:
-                    r.wake()  # a hauler that came ahead of me sees me arrive
+            for h in self.rendezvous.around(self.pos, "hauler", living=False):
+                self.rendezvous.send(self, h.name, Here())  # one that came ahead of me
         self.transports.auction_ground_minerals()
         if site is None or site.remaining == 0 or site.worker not in (None, self.name):
             self.transports.drop_ahead(self.early)
@@ -146,7 +158,11 @@ class Excavator(Robot):
                     self.house.open(
                         "transport", (site.x, site.y), self.ahead[i], kind="excavator_hauler"
                     )
-            ready = [t for t in self.ahead if t in self.early and self.early[t].standing_by(self)]
+            ready = [
+                t
+                for t in self.ahead
+                if t in self.early and self.rendezvous.send(self, self.early[t], Ready(free=False))
+            ]
             if ready:
                 task_id = ready[0]
                 hauler = self.early.pop(task_id)
@@ -180,7 +196,7 @@ class Excavator(Robot):
                 not on_its_way
                 and self.ctx.policy.coalitions()
                 and partner is not None
-                and partner.ready_for(self)
+                and self.rendezvous.send(self, partner, Ready(free=True))
             ):
                 self.house.cancel_task(task_id)
                 yield from self.transfer(partner, site)
@@ -198,21 +214,22 @@ class Excavator(Robot):
             yield arrival | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             self._arrival = None
             if arrival.triggered:
-                hauler = cast("Taker", arrival.value)
+                hauler = str(arrival.value)
                 self.house.cancel_task(task_id)
                 yield from self.transfer(hauler, site)
         self.waiting_for = None
 
-    def transfer(self, hauler: Taker, site: SiteState) -> Any:
+    def transfer(self, hauler: str, site: SiteState) -> Any:
+        """Empty the bucket into the bin of the hauler beside me: it takes the mineral on the
+        `Transfer` at the end, or refuses it (it failed or left meanwhile: it stays here)."""
         self.state = "loading"
         self.transfer_now_s = self.mobility.work_s(self.ctx.scenario.timing.transfer_s)
-        hauler.loading_from = self
+        self.rendezvous.send(self, hauler, Loading(self.transfer_now_s))
         yield self.env.timeout(self.transfer_now_s)
-        hauler.loading_from = None
-        if not hauler.can_receive(self):
-            return  # it failed or left while we worked: the mineral is still in the bucket
         task_id = self.waiting_for
         assert task_id is not None
+        if not self.rendezvous.send(self, hauler, Transfer(task_id)):
+            return
         self.bucket = 0
         if not self.house.watching(task_id):
             # a coalition hand-over, outside any auction: watch its delivery all the same
@@ -222,13 +239,12 @@ class Excavator(Robot):
                     task_id,
                     "transport",
                     (site.x, site.y),
-                    hauler.name,
+                    hauler,
                     float(self.env.now),
                 )
             )
-        hauler.receive(self, task_id)
         self.ctx.observer.emit(
-            "pickup", robot=hauler.name, from_robot=self.name, x=self.pos[0], y=self.pos[1]
+            "pickup", robot=hauler, from_robot=self.name, x=self.pos[0], y=self.pos[1]
         )
 
     def free_at(self) -> tuple[float, Point]:
@@ -255,7 +271,20 @@ class Excavator(Robot):
         return t, pos
 
     # --- physical rendezvous with haulers (they stand beside me) --------------------------
-    def hauler_arrived(self, hauler: Taker, task_id: str) -> bool:
+    def on_handover(self, sender: Sight, msg: Handover, _witness: Witness) -> bool:
+        """A hauler beside me says something of a hand-over (`engine.robots.rendezvous`)."""
+        if isinstance(msg, Arrived):
+            if msg.task_id is None:
+                self._partner_arrived(sender.name)
+                return True
+            return self._hauler_arrived(sender.name, msg.task_id)
+        if isinstance(msg, Left):
+            if self.partner_here == sender.name:
+                self.partner_here = None
+            return True
+        return False  # (a giver's own messages are not for it)
+
+    def _hauler_arrived(self, hauler: str, task_id: str) -> bool:
         arrival = self._arrival
         ready = self.alive and self.bucket and self.waiting_for == task_id
         if ready and arrival is not None and not arrival.triggered:
@@ -268,20 +297,12 @@ class Excavator(Robot):
             return True
         return False
 
-    def expects(self, task_id: str) -> bool:
-        """Is this transport for the mineral in my bucket, or one I am about to dig?"""
-        return task_id == self.waiting_for or task_id in self.ahead
-
-    def partner_arrived(self, hauler: Taker) -> None:
+    def _partner_arrived(self, hauler: str) -> None:
         self.partner_here = hauler
         waiting_for = self.waiting_for
         rec_open = waiting_for is not None and self.house.is_open(waiting_for)
         if self._arrival is not None and not self._arrival.triggered and rec_open:
             self._arrival.succeed(hauler)
-
-    def partner_left(self, hauler: Taker) -> None:
-        if self.partner_here is hauler:
-            self.partner_here = None
 
     def paired(self) -> bool:
         return False  # excavators bid as Policy 1 under Policy 2

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import simpy
-
 from engine.bidding import OpenAuction
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
@@ -13,7 +11,16 @@ from engine.policies import coalition_partner
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
-from engine.robots.rendezvous import Giver
+from engine.robots.handover import Taking
+from engine.robots.rendezvous import (
+    Arrived,
+    Handover,
+    Left,
+    LocalRendezvous,
+    Rendezvous,
+    Sight,
+    Witness,
+)
 from engine.terrain import NEAR
 
 SENSE = 2.0
@@ -29,10 +36,10 @@ class Hauler(Robot):
         super().__init__(*args, **kwargs)
         self.bidder = Bidder(self)
         self.bin = 0
-        self._loaded: simpy.Event | None = None
+        self.taking = Taking(self)  # my side of a hand-over
+        self.rendezvous: Rendezvous = LocalRendezvous(self.ctx.robots)  # (field: its agent's)
         self.partner_site: Point | None = None
         self._partner_done: set[str] = set()  # sites my partner finished or left
-        self.loading_from: Giver | None = None  # a bucket is being emptied into my bin
 
     def load(self) -> int:
         return self.bin
@@ -58,8 +65,8 @@ class Hauler(Robot):
         if exc is None and (self.ctx.policy.early_transports() or self.ctx.radio is not None):
             # (radio range: the excavator may have driven into reach to offer this transport)
             exc = yield from self.wait_for_excavator(a)
-        if exc is not None and exc.hauler_arrived(self, a.task_id):
-            yield from self.wait_loaded(exc, a.task_id)
+        if exc is not None and self.rendezvous.send(self, exc.name, Arrived(a.task_id)):
+            yield from self.wait_loaded(exc.name, a.task_id)
         if not self.bin:
             yield from self.pick_from_ground(self.pos)
         if not self.bin and a.search_path:
@@ -91,36 +98,24 @@ class Hauler(Robot):
             yield self.wait_for_wake() | self.env.timeout(min(left, cfg.protocol.heartbeat_s))
         return None
 
-    def wait_loaded(self, exc: Giver, task_id: str) -> Any:
+    def wait_loaded(self, exc: str, task_id: str) -> Any:
         """Stand by the excavator until it has emptied its bucket into my bin (longer if I came
         early for a mineral it is still digging, as long as it still expects me)."""
         self.state = "waiting"
-        self._loaded = loaded = self.env.event()
+        loaded = self.taking.wait()
         limit = self.ctx.scenario.timing.transfer_s + self.ctx.scenario.protocol.failure_timeout_s
         yield loaded | self.env.timeout(limit)
-        while not loaded.triggered and exc.alive and task_id in exc.ahead:
+        while not loaded.triggered and self._still_expected(exc, task_id):
             yield loaded | self.env.timeout(limit)
-        self._loaded = None
+        self.taking.stop()
 
-    def can_receive(self, exc: Giver) -> bool:
-        """Alive, still waiting to be loaded beside the excavator, with an empty bin: a mineral
-        can move over (a hauler that failed and came back mid-transfer is not waiting)."""
-        return (
-            self.alive
-            and self.bin == 0
-            and self._loaded is not None
-            and dist(self.pos, exc.pos) <= NEAR
-        )
+    def _still_expected(self, exc: str, task_id: str) -> bool:
+        seen = self.rendezvous.look(exc)
+        return seen is not None and seen.alive and task_id in seen.ahead
 
-    def receive(self, exc: Giver, task_id: str) -> None:
-        """The excavator empties its bucket into my bin; a coalition hand-over is my task now."""
-        self.bin = 1
-        if self.current is None:
-            self.current = Assignment(
-                f"{exc.name}/coalition", exc.name, "transport", task_id, exc.pos
-            )
-        if self._loaded is not None and not self._loaded.triggered:
-            self._loaded.succeed()
+    def on_handover(self, sender: Sight, msg: Handover, witness: Witness) -> bool:
+        """An excavator beside me says something of the hand-over (`Taking`)."""
+        return self.taking.on_handover(sender, msg, witness)
 
     def search_along(self, route: tuple[Point, ...]) -> Any:
         """Follow a failed robot's route until a fallen mineral comes into sight: the first one
@@ -166,10 +161,10 @@ class Hauler(Robot):
         self.bin = 0
         self.ctx.field.note_delivery(self.name)
 
-    def _excavator_here(self, pred: Any) -> Giver | None:
-        for r in self.ctx.robots.values():
-            if r.rtype == "excavator" and r.alive and dist(r.pos, self.pos) <= NEAR and pred(r):
-                return r  # type: ignore[return-value]
+    def _excavator_here(self, pred: Any) -> Sight | None:
+        for seen in self.rendezvous.around(self.pos, "excavator"):
+            if pred(seen):
+                return seen
         return None
 
     def free_at(self) -> tuple[float, Point]:
@@ -217,14 +212,15 @@ class Hauler(Robot):
             yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
             return
         self.state = "waiting"
-        self._loaded = self.env.event()
-        exc.partner_arrived(self)
+        loaded = self.taking.wait()
+        self.rendezvous.send(self, exc.name, Arrived(None))
         woken = self.wait_for_wake()
-        yield self._loaded | woken
-        if self.loading_from is not None:  # a transfer has begun: stay until it ends
-            yield self._loaded | self.env.timeout(self.loading_from.transfer_now_s)
-        self._loaded = None
-        exc.partner_left(self)
+        yield loaded | woken
+        loading_s = self.taking.loading_s
+        if loading_s is not None:  # a transfer has begun: stay until it ends
+            yield loaded | self.env.timeout(loading_s)
+        self.taking.stop()
+        self.rendezvous.send(self, exc.name, Left())
         if self.bin:
             yield from self.deliver()
             self.ctx.observer.emit("coalition_delivery", robot=self.name, excavator=exc.name)
@@ -259,25 +255,6 @@ class Hauler(Robot):
             ):
                 return False  # an unpaired hauler is alive: it can carry
         return True
-
-    def ready_for(self, exc: Giver) -> bool:
-        """Standing by this excavator with an empty bin, waiting for its bucket?"""
-        return (
-            self.alive
-            and self.bin == 0
-            and self._loaded is not None
-            and self.current is None
-            and dist(self.pos, exc.pos) <= NEAR
-        )
-
-    def standing_by(self, exc: Giver) -> bool:
-        """Came early for a transport and waits beside this excavator for its bucket?"""
-        return (
-            self.alive
-            and self.bin == 0
-            and self._loaded is not None
-            and dist(self.pos, exc.pos) <= NEAR
-        )
 
     def on_close_heard(self, msg: Close) -> None:
         if msg.task_type == "excavate" and msg.allocated_to == self.partner:
@@ -327,11 +304,11 @@ class Hauler(Robot):
             self.consider_bids()
 
     def on_revoked(self) -> None:
-        self._loaded = None
+        self.taking.stop()
         super().on_revoked()
 
     def drop_loads(self) -> None:
         if self.bin:
             self.bin = 0
             self.ctx.field.drop_mineral(self.pos, self.name)
-        self._loaded = None
+        self.taking.stop()

@@ -186,8 +186,8 @@ class Attacker:
             self.ask(
                 body_key(m, robot),
                 {
-                    "op": "call",
-                    "args": {"method": "take", "args": ["t", "excavator-1@x/2"]},
+                    "op": "handover",
+                    "args": {"msg": "transfer", "task_id": "t", "once": "excavator-1@x/2"},
                     "caller": {"name": "excavator-1", "rtype": "excavator", "pos": [0, 0]},
                 },
             )

@@ -49,8 +49,9 @@ class Team:
         return self.w.handle(op, dict(args), self.cert(who))
 
     def consent(self, giver: str, hauler: str, once: str) -> str:
-        """The giving excavator's signed `take` query to `hauler`, as the hauler forwards it."""
-        req = {"op": "call", "args": {"method": "take", "args": ["t", once]}, "caller": {}}
+        """The giving excavator's signed `Transfer` to `hauler`, as the hauler forwards it."""
+        args = {"msg": "transfer", "task_id": "t", "once": once}
+        req = {"op": "handover", "args": args, "caller": {}}
         frame = self.sealers[giver].seal(body_key(MISSION, hauler), encode_json(req))
         return base64.b64encode(frame).decode()
 
