@@ -104,7 +104,7 @@ class MissionContext:
         self.bus: EmbeddedBus  # set by the mission once the bus exists
         self.liveness = Liveness()
         self.robots: dict[str, Body] = {}
-        self.field = Terrain(world, env, self.observer)
+        self.terrain = Terrain(world, env, self.observer)
         # the realism options (docs/model.md): None while off, so the reference model pays nothing
         self.durations: Durations | None = None
         self.docks: Plant | None = None
@@ -166,16 +166,16 @@ class MissionContext:
         except PlanningError:
             return ()
 
-    # --- across the field and the robots ---------------------------------------------------
+    # --- across the terrain and the robots ---------------------------------------------------
     def minerals_in(self) -> dict[str, int]:
         """Where every mineral is now; the sum is always the total (conservation)."""
-        field = self.field
+        terrain = self.terrain
         buckets = sum(getattr(r, "bucket", 0) for r in self.robots.values())
         bins = sum(getattr(r, "bin", 0) for r in self.robots.values())
         return {
-            "sites": sum(s.remaining for s in field.sites),
+            "sites": sum(s.remaining for s in terrain.sites),
             "buckets": buckets,
             "bins": bins,
-            "ground": len(field.ground),
-            "delivered": field.delivered,
+            "ground": len(terrain.ground),
+            "delivered": terrain.delivered,
         }

@@ -41,7 +41,7 @@ def predict_found(ctx: GlobalView) -> dict[str, float]:
                 secs = dist(a, b) / scout.speed
                 if secs <= 0.0:
                     continue
-                for site in ctx.field.sites_near(a, b, r):
+                for site in ctx.terrain.sites_near(a, b, r):
                     if site.found_at is not None:
                         continue
                     u = first_entry(a, b, (site.x, site.y), r)

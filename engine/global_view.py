@@ -96,14 +96,14 @@ class PolicyName(Protocol):
 
 
 class GlobalView(Protocol):
-    """The mission's true state: the scenario and world, the clock, every robot, the field's
+    """The mission's true state: the scenario and world, the clock, every robot, the terrain's
     sites and minerals, the auction records and the event log (`observer`), the path planner
     (which `offline` wraps to drive its planned legs) and the policy in effect."""
 
     scenario: Scenario
     world: World
     env: simpy.Environment
-    field: Terrain
+    terrain: Terrain
     observer: Observer
     planner: PathPlanner
 

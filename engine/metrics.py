@@ -46,7 +46,7 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
     for r in ctx.robots.values():
         if r.rtype in distance:
             distance[r.rtype] += r.distance + (_partial(r))
-    field, obs = ctx.field, ctx.observer
+    terrain, obs = ctx.terrain, ctx.observer
     in_state = {t: dict.fromkeys(STATES[t], 0.0) for t in ROBOT_TYPES}
     for r in ctx.robots.values():
         if r.rtype in in_state:
@@ -58,12 +58,12 @@ def mission_metrics(ctx: MissionContext) -> dict[str, Any]:
         if rec.status == "closed" and rec.kind in open_times and rec.open_time is not None:
             open_times[rec.kind].append(rec.open_time)
     out = {
-        "sites_found": field.sites_found,
-        "sites_total": len(field.sites),
+        "sites_found": terrain.sites_found,
+        "sites_total": len(terrain.sites),
         # per site in world order: when a scout first saw it (None: not yet found)
-        "sites_found_at": [s.found_at for s in field.sites],
-        "minerals_delivered": field.delivered,
-        "minerals_total": field.minerals_total,
+        "sites_found_at": [s.found_at for s in terrain.sites],
+        "minerals_delivered": terrain.delivered,
+        "minerals_total": terrain.minerals_total,
         "distance": distance,
         "distance_total": sum(distance.values()),
         # robot-seconds in each state, summed over the robots of a type

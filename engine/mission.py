@@ -136,7 +136,7 @@ class Mission(SimulatedViews):
         """Process every event up to simulation time `until` (clamped to the mission's end)."""
         if self.done:
             return
-        env, finished = self.env, self.ctx.field.finished
+        env, finished = self.env, self.ctx.terrain.finished
         limit = min(float(until), self.scenario.max_time_s)
         stalled = self._stalled
         while not finished.triggered and not stalled.triggered and env.peek() <= limit:
@@ -170,7 +170,7 @@ class Mission(SimulatedViews):
     def _end(self, status: str) -> None:
         self.status = status
         self.ctx.observer.emit(
-            "mission_ended", status=status, makespan_s=self.ctx.field.finished_at
+            "mission_ended", status=status, makespan_s=self.ctx.terrain.finished_at
         )
         self.close()
 
@@ -272,7 +272,7 @@ class Mission(SimulatedViews):
     def inject_task(self, task_type: str = "excavate", location: Iterable[float] = ()) -> str:
         self._check_running()
         task = place_task(
-            self.world, self.ctx.field.sites, self.scenario.scan_radius, task_type, location
+            self.world, self.ctx.terrain.sites, self.scenario.scan_radius, task_type, location
         )
         x, y = task.x, task.y
         self._record("inject_task", type=task_type, location=[x, y])

@@ -190,7 +190,7 @@ class OfflineAllocator:
     def _site(self, ctx: GlobalView, p: Point) -> str | None:
         """The site at a task's place (auctions name a site by its exact coordinates)."""
         if p not in self._sites:
-            site = ctx.field.site_at(p)
+            site = ctx.terrain.site_at(p)
             self._sites[p] = None if site is None else site.id
         return self._sites[p]
 
@@ -255,7 +255,7 @@ def build_problem(ctx: GlobalView) -> Problem:
             if reserved is not None:
                 held.append(reserved.location)
     jobs = []
-    for s in ctx.field.sites:
+    for s in ctx.terrain.sites:
         if s.remaining <= 0 or (s.worker is not None and ctx.robots[s.worker].alive):
             continue
         if any(dist(p, (s.x, s.y)) <= NEAR for p in held):

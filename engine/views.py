@@ -126,7 +126,7 @@ class SimulatedViews(MissionViews):
 
     @property
     def terrain(self) -> Terrain:
-        return self.ctx.field
+        return self.ctx.terrain
 
     def robot_dicts(self, full: bool) -> list[dict[str, Any]]:
         return [self._robot_dict(r, full) for r in self._robots()]
@@ -167,12 +167,12 @@ class SimulatedViews(MissionViews):
 
     def counters(self) -> dict[str, int]:
         ctx, obs = self.ctx, self.ctx.observer
-        return tally(ctx.field, obs.auctions, obs.bids, obs.declines, ctx.bus.published)
+        return tally(ctx.terrain, obs.auctions, obs.bids, obs.declines, ctx.bus.published)
 
     def stall_report(self) -> dict[str, Any]:
         """What is stuck: the open auctions, and what every robot is doing or waiting for."""
         ctx = self.ctx
-        field, obs = ctx.field, ctx.observer
+        terrain, obs = ctx.terrain, ctx.observer
         auctions = [
             {
                 "auction_id": a.id,
@@ -199,5 +199,5 @@ class SimulatedViews(MissionViews):
             "open_auctions": auctions,
             "robots": robots,
             "minerals": ctx.minerals_in(),
-            "sites_unfound": len(field.sites) - field.sites_found,
+            "sites_unfound": len(terrain.sites) - terrain.sites_found,
         }

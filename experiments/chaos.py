@@ -68,7 +68,7 @@ def _choose(m: Mission, rng: np.random.Generator) -> dict[str, Any] | None:
 
 def _injection(m: Mission, rng: np.random.Generator) -> dict[str, Any] | None:
     """Mostly a known site (the operator's usual case), sometimes an empty free point."""
-    found = [s for s in m.ctx.field.sites if s.found_at is not None]
+    found = [s for s in m.ctx.terrain.sites if s.found_at is not None]
     if found and rng.random() < 0.7:
         s = found[int(rng.integers(len(found)))]
         return {"kind": "inject_task", "args": {"type": "excavate", "location": [s.x, s.y]}}
@@ -97,7 +97,7 @@ def chaos_mission(
     m = Mission(scenario, seed, policy, planner=planner)  # type: ignore[arg-type]
     if watch is not None:
         watch(m)
-    run = ChaosRun(seed, m.policy, total=m.ctx.field.minerals_total)
+    run = ChaosRun(seed, m.policy, total=m.ctx.terrain.minerals_total)
     times: list[float] = sorted(float(t) for t in rng.uniform(0, window_s, size=actions))
     for i in range(1, len(times)):
         if rng.random() < 0.15:
@@ -120,8 +120,8 @@ def chaos_mission(
     finally:
         m.close()
     run.actions = list(m.actions)
-    run.status, run.delivered = m.status, m.ctx.field.delivered
-    run.makespan_s, run.sim_time_s = m.ctx.field.finished_at, m.now
+    run.status, run.delivered = m.status, m.ctx.terrain.delivered
+    run.makespan_s, run.sim_time_s = m.ctx.terrain.finished_at, m.now
     return run
 
 

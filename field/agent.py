@@ -129,7 +129,7 @@ class Agent:
             make_policy(spawn["policy"], self._policy_context),
         )
         ctx.report = self.report
-        ctx.field = RemoteField(self)  # type: ignore[assignment]
+        ctx.terrain = RemoteField(self)  # type: ignore[assignment]
         self.bus = ZenohBus(self.link, ctx.liveness, self._note_peer, faults)
         ctx.bus = self.bus  # type: ignore[assignment]
         self.ctx = ctx

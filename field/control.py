@@ -80,7 +80,7 @@ class FieldMission(MissionViews):
 
     @property
     def terrain(self) -> Terrain:
-        return self.fleet.world.field
+        return self.fleet.world.terrain
 
     @property
     def events(self) -> list[Event]:

@@ -309,7 +309,7 @@ def run_fleet(
                 else:
                     fleet.spawn(arg)
                 actions.append({"t": now, "kind": kind, "robot": arg})
-            if fleet.world.field.finished.triggered:
+            if fleet.world.terrain.finished.triggered:
                 status = "completed"
                 break
             if progress is not None and time.monotonic() - shown >= PROGRESS_S:

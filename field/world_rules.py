@@ -59,7 +59,7 @@ def authorize(ws: WorldService, op: str, a: dict[str, Any], caller: Certificate)
         raise Refused(f"{op}: {me}'s bin is full")
     if op == "scan":
         cell = a.get("cell")
-        if not isinstance(cell, int) or not 0 <= cell < len(ws.field.scanned):
+        if not isinstance(cell, int) or not 0 <= cell < len(ws.terrain.scanned):
             raise Refused(f"cell: {cell!r} is not a cell of this map")
     elif op == "found":
         if a.get("id") not in ws.revealed.get(me, ()):

@@ -94,7 +94,7 @@ class WorldService:
         self.world = generate_world(scenario, world_rng)
         self.clock = MissionClock(time.time(), speed)
         self.observer = Observer(self.clock.now)
-        self.field = Terrain(self.world, _TerrainEnv(self.clock), self.observer)  # type: ignore[arg-type]
+        self.terrain = Terrain(self.world, _TerrainEnv(self.clock), self.observer)  # type: ignore[arg-type]
         self.roster: dict[str, str] = roster(scenario.team)
         starts = start_positions(self.world, scenario.start_spread, len(self.roster))
         self.starts = dict(zip(self.roster, starts, strict=True))
@@ -175,7 +175,7 @@ class WorldService:
         return self.done[str(once)]
 
     def _handle(self, op: str, a: dict[str, Any], caller: str) -> Any:
-        f = self.field
+        f = self.terrain
         if op == "spawn":
             return self._spawn(str(a["name"]))
         if op == "site_at":
@@ -278,8 +278,8 @@ class WorldService:
         n = self.loads.pop(name, 0)
         _t, x, y = self.seen.get(name, (0.0, *self.starts.get(name, self.world.plant)))
         for _ in range(n):
-            self.field.drop_mineral((x, y), name)
-        for s in self.field.sites:
+            self.terrain.drop_mineral((x, y), name)
+        for s in self.terrain.sites:
             if s.worker == name:
                 s.worker = None
         return n
@@ -291,7 +291,7 @@ class WorldService:
     def minerals_in(self) -> dict[str, int]:
         """Where every mineral is, read at one instant: they add up to the total."""
         with self._lock:
-            f = self.field
+            f = self.terrain
             return {
                 "sites": sum(s.remaining for s in f.sites),
                 "aboard": sum(self.loads.values()),
@@ -305,7 +305,7 @@ class WorldService:
         return site_dict(s)
 
     def site(self, site_id: Any) -> SiteState:
-        for s in self.field.sites:
+        for s in self.terrain.sites:
             if s.id == site_id:
                 return s
         raise ValueError(f"id: no site {site_id!r}")
@@ -338,7 +338,7 @@ class WorldService:
         }
 
     def status(self) -> dict[str, Any]:
-        f = self.field
+        f = self.terrain
         return {
             "t": self.clock.now(),
             "delivered": f.delivered,

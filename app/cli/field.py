@@ -266,7 +266,7 @@ def fleet_up(
             typer.echo(f"credential for {name}: {path}", err=True)
         fleet.up()
         try:
-            while not fleet.world.field.finished.triggered:
+            while not fleet.world.terrain.finished.triggered:
                 time.sleep(0.2)
         except KeyboardInterrupt:
             sys.exit(130)

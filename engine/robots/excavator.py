@@ -79,7 +79,7 @@ class Excavator(Robot):
         self.state = "travelling"
         self.transports.auction_on_the_way(a)
         yield from self.mobility.go_to(a.location)
-        site = self.ctx.field.site_at(a.location)
+        site = self.ctx.terrain.site_at(a.location)
         if self.ahead:
             for h in self.rendezvous.around(self.pos, "hauler", living=False):
                 self.rendezvous.send(self, h.name, Here())  # one that came ahead of me
@@ -259,7 +259,7 @@ class Excavator(Robot):
         t, pos = 0.0, here
         cur = self.current
         if cur is not None:
-            site = self.ctx.field.site_at(self.pos) if self.motion is None else None
+            site = self.ctx.terrain.site_at(self.pos) if self.motion is None else None
             if site is not None and dist(self.pos, cur.location) <= NEAR:
                 t += site.remaining * per + (cfg.timing.transfer_s if self.bucket else 0.0)
             else:
@@ -323,7 +323,7 @@ class Excavator(Robot):
         self.transports.auction_ground_minerals()
 
     def on_revoked(self) -> None:
-        site = self.ctx.field.site_at(self.pos)
+        site = self.ctx.terrain.site_at(self.pos)
         if site is not None and site.worker == self.name:
             site.worker = None
         self.waiting_for = None
@@ -334,8 +334,8 @@ class Excavator(Robot):
     def drop_loads(self) -> None:
         if self.bucket:
             self.bucket = 0
-            self.ctx.field.drop_mineral(self.pos, self.name)
-        site = self.ctx.field.site_at(self.pos)
+            self.ctx.terrain.drop_mineral(self.pos, self.name)
+        site = self.ctx.terrain.site_at(self.pos)
         if site is not None and site.worker == self.name:
             site.worker = None
         self.waiting_for = None

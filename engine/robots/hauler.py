@@ -125,26 +125,26 @@ class Hauler(Robot):
             a, b = route[i], route[i + 1]
             seen = sorted(
                 (dist(a, (g.x, g.y)), g.id, (g.x, g.y))
-                for g in self.ctx.field.ground
+                for g in self.ctx.terrain.ground
                 if segment_point_distance(a, b, (g.x, g.y)) <= SENSE
             )
             for _, _, spot in seen:
                 yield from self.mobility.go_to(spot)
-                if self.ctx.field.ground_near(self.pos, SENSE) is not None:
+                if self.ctx.terrain.ground_near(self.pos, SENSE) is not None:
                     return
             yield from self.mobility.go_to(b)
 
     def pick_from_ground(self, p: Point) -> Any:
-        g = self.ctx.field.ground_near(p, SENSE)
+        g = self.ctx.terrain.ground_near(p, SENSE)
         if g is None:
             return
         if dist(p, (g.x, g.y)) > NEAR:
             yield from self.mobility.go_to((g.x, g.y))
         self.state = "loading"
         yield self.env.timeout(self.mobility.work_s(self.ctx.scenario.timing.transfer_s))
-        if g in self.ctx.field.ground:
+        if g in self.ctx.terrain.ground:
             self.bin = 1
-            self.ctx.field.pick_ground(g, self.name)
+            self.ctx.terrain.pick_ground(g, self.name)
 
     def deliver(self) -> Any:
         self.state = "carrying"
@@ -159,7 +159,7 @@ class Hauler(Robot):
         else:
             yield from docks.unload(self, unload_s)
         self.bin = 0
-        self.ctx.field.note_delivery(self.name)
+        self.ctx.terrain.note_delivery(self.name)
 
     def _excavator_here(self, pred: Any) -> Sight | None:
         for seen in self.rendezvous.around(self.pos, "excavator"):
@@ -310,5 +310,5 @@ class Hauler(Robot):
     def drop_loads(self) -> None:
         if self.bin:
             self.bin = 0
-            self.ctx.field.drop_mineral(self.pos, self.name)
+            self.ctx.terrain.drop_mineral(self.pos, self.name)
         self.taking.stop()

@@ -60,7 +60,7 @@ class Scout(Robot):
                             yield from self.charging.recharge()
                             continue  # then this cell again, from the charger
                         yield from self.sweep_to(path)
-                        self.ctx.field.mark_scanned(cell)
+                        self.ctx.terrain.mark_scanned(cell)
                 search.cursor += 1
             elif self.ctx.radio is not None and not self.ctx.radio.in_contact(self.name):
                 yield from self.regain_contact()  # its search is done: back within reach
@@ -84,7 +84,7 @@ class Scout(Robot):
         for i in range(len(path) - 1):
             a, b = path[i], path[i + 1]
             seg = dist(a, b)
-            for site in self.ctx.field.sites_near(a, b, r):
+            for site in self.ctx.terrain.sites_near(a, b, r):
                 u = first_entry(a, b, (site.x, site.y), r)
                 if u is not None:
                     hits.append((along + u * seg, len(hits), site))
@@ -106,7 +106,7 @@ class Scout(Robot):
         self.mobility.stop(along)
 
     def detect(self, site: SiteState) -> None:
-        self.ctx.field.note_site_found(site, self.name)
+        self.ctx.terrain.note_site_found(site, self.name)
         tid = site_task_id(site.x, site.y)
         known = self.search.known_tasks
         if tid in known:

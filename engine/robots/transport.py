@@ -110,7 +110,7 @@ class Transports:
     def auction_ground_minerals(self) -> None:
         """Minerals lying where I stand (a failed robot's) get a transport, unless one is known."""
         here = self.robot.pos
-        for g in list(self.ctx.field.ground):
+        for g in list(self.ctx.terrain.ground):
             if dist((g.x, g.y), here) > NEAR or self._known_at((g.x, g.y)):
                 continue
             self._ground_serial += 1

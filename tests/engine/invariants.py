@@ -20,7 +20,7 @@ class InvariantWatch:
         ctx = self.m.ctx
         self.events += 1
         where = ctx.minerals_in()
-        assert sum(where.values()) == ctx.field.minerals_total, f"minerals not conserved: {where}"
+        assert sum(where.values()) == ctx.terrain.minerals_total, f"minerals not conserved: {where}"
         working = Counter()
         holders: Counter[str] = Counter()
         for r in ctx.robots.values():

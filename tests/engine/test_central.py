@@ -70,7 +70,7 @@ def test_a_task_waits_while_the_optimum_gives_it_no_robot():
 def test_invariants_hold_under_the_oracle_with_failures():
     for seed in (3, 1543):
         m = run_with_failures("central-greedy", seed)
-        assert m.status == "completed" and m.ctx.field.delivered == m.ctx.field.minerals_total
+        assert m.status == "completed" and m.ctx.terrain.delivered == m.ctx.terrain.minerals_total
 
 
 def test_the_oracle_run_is_deterministic():

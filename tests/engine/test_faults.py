@@ -61,7 +61,7 @@ def test_the_site_of_a_scout_that_dies_holding_its_auction_is_still_excavated():
     m.disable_robot(first.auctioneer, "abrupt")
     m.run()
     assert m.status == "completed"
-    site = m.ctx.field.site_at(first.location)
+    site = m.ctx.terrain.site_at(first.location)
     assert site is not None and site.remaining == 0
     adopted = [a for a in m.auctions if a.reauction_of == first.id]
     assert adopted and adopted[0].auctioneer != first.auctioneer
@@ -125,7 +125,7 @@ def test_an_added_scout_takes_a_share_of_the_search_and_no_cell_is_scanned_twice
     m.run()
     shares = events_of(m, "handoff")
     assert [s["to"] for s in shares] == [scout] and shares[0]["cells"] > 50
-    assert m.ctx.field.scan_visits == m.ctx.field.scanned_count == scannable(m)
+    assert m.ctx.terrain.scan_visits == m.ctx.terrain.scanned_count == scannable(m)
     assert m.metrics()["makespan_s"] < alone.metrics()["makespan_s"]
 
 
@@ -138,7 +138,7 @@ def test_a_share_the_newcomer_never_confirms_is_taken_back_and_scanned():
     m.run()
     assert m.status == "completed"
     assert events_of(m, "handoff") and events_of(m, "handoff_taken_back")
-    assert m.ctx.field.scanned_count == scannable(m)
+    assert m.ctx.terrain.scanned_count == scannable(m)
 
 
 def test_a_returning_scout_whose_cells_were_adopted_asks_for_a_share():
@@ -151,4 +151,4 @@ def test_a_returning_scout_whose_cells_were_adopted_asks_for_a_share():
     m.run()
     assert m.status == "completed"
     assert [s["to"] for s in events_of(m, "handoff")] == ["scout-2"]
-    assert m.ctx.field.scanned_count == scannable(m)
+    assert m.ctx.terrain.scanned_count == scannable(m)

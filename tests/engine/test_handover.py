@@ -199,6 +199,6 @@ def test_a_mineral_is_in_exactly_one_place_whoever_fails_during_a_hand_over(
         m.run()
         watch.final()
         assert m.status == "completed", (name, how, m.metrics())
-        assert m.ctx.field.delivered == m.ctx.field.minerals_total
+        assert m.ctx.terrain.delivered == m.ctx.terrain.minerals_total
     finally:
         m.close()

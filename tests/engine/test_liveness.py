@@ -40,7 +40,7 @@ def test_the_reported_stuck_mission_completes() -> None:
     m.run()
     watch.final()
     assert m.status == "completed"
-    assert m.ctx.field.delivered == 64
+    assert m.ctx.terrain.delivered == 64
 
 
 def test_a_scout_back_before_anyone_noticed_resumes_its_auctions() -> None:
@@ -68,7 +68,7 @@ def test_a_recorded_live_chaos_session_completes() -> None:
         m.apply(action)
     m.run()
     watch.final()
-    assert (m.status, m.ctx.field.delivered) == ("completed", 64)
+    assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
 
 
 # --- randomized operator actions over every policy -------------------------------------------
@@ -114,7 +114,7 @@ def test_a_randomized_history_replays_to_the_same_run() -> None:
     for action in run.actions:
         m.apply(action)
     m.run()
-    assert (m.status, m.ctx.field.delivered, m.ctx.field.finished_at) == (
+    assert (m.status, m.ctx.terrain.delivered, m.ctx.terrain.finished_at) == (
         run.status,
         run.delivered,
         run.makespan_s,
@@ -143,7 +143,7 @@ def test_a_mission_that_cannot_finish_ends_stalled_and_says_what_is_stuck() -> N
     assert states["excavator-1"] == "failed" and states["excavator-2"] == "disabled"
     assert report["open_auctions"], "the sites' excavation auctions are what is stuck"
     assert all(a["task_id"].startswith("excavate@") for a in report["open_auctions"])
-    assert report["minerals"]["sites"] == m.ctx.field.minerals_total
+    assert report["minerals"]["sites"] == m.ctx.terrain.minerals_total
     assert events_of(m, "mission_ended")[-1]["status"] == "stalled"
     # an idle team's heartbeats for an hour are not worth 300,000 rows
     assert len(m.events) < 20_000

@@ -124,21 +124,21 @@ def test_the_reference_run_follows_its_plan_and_digs_nothing_before_it_is_found(
     assert plan["reason"] == "start" and plan["t"] == 0.0 and plan["minerals"] == 64
     # the schedule's paths and discovery times are the run's own: it ends when predicted
     assert m.status == "completed"
-    assert math.isclose(m.ctx.field.finished_at, plan["makespan_s"], abs_tol=1e-6)
+    assert math.isclose(m.ctx.terrain.finished_at, plan["makespan_s"], abs_tol=1e-6)
     found = {e["site"]: e["t"] for e in events_of(m, "site_found")}
     assert all(e["t"] >= found[e["site"]] + DIG for e in events_of(m, "dug"))
     # excavators stood at their sites before the scouts found them: awarded in one bid window
     excavations = [a for a in m.auctions if a.task_type == "excavate"]
     assert all(a.open_time == 1.0 for a in excavations)
     lookahead = run_mission(reference_scenario(), 0, "lookahead")["makespan_s"]
-    assert m.ctx.field.finished_at < lookahead
+    assert m.ctx.terrain.finished_at < lookahead
 
 
 def test_failures_make_it_plan_again_and_it_still_finishes():
     for seed in (3, 1543):
         m = run_with_failures("offline", seed)
         assert m.status == "completed"
-        assert m.ctx.field.delivered == m.ctx.field.minerals_total
+        assert m.ctx.terrain.delivered == m.ctx.terrain.minerals_total
         assert [e["reason"] for e in events_of(m, "offline_planned")][1:2] == ["team changed"]
 
 
@@ -156,7 +156,7 @@ def test_live_switches_to_and_from_offline_and_an_injected_task_finish():
     m.set_policy("nearest")
     m.run()
     watch.final()
-    assert m.status == "completed" and m.ctx.field.delivered == m.ctx.field.minerals_total
+    assert m.status == "completed" and m.ctx.terrain.delivered == m.ctx.terrain.minerals_total
 
 
 def test_the_offline_run_is_deterministic():

@@ -99,7 +99,7 @@ def test_bids_are_expected_arrival_times_and_a_busy_hauler_queues_one_more_task(
 def test_a_lone_hauler_chains_trips_through_its_queue():
     m = one_site("lookahead", haulers=1)
     m.advance(800)
-    assert m.ctx.field.delivered == 3
+    assert m.ctx.terrain.delivered == 3
     auctions = sorted(transport_auctions(m), key=lambda a: a.opened_at)
     assert all(a.allocated_to == "hauler-1" for a in auctions)
     assert auctions[1].reannouncements == 0  # won at once, by a hauler already busy
@@ -123,13 +123,13 @@ def test_a_hauler_that_arrives_first_waits_for_its_excavator():
     assert first.allocated_to == "hauler-2"
     waited = [e for e in events_of(m, "task_ended") if e["robot"] == "hauler-2"]
     assert waited and waited[0]["outcome"] == "done"
-    assert m.ctx.field.delivered == 1
+    assert m.ctx.terrain.delivered == 1
 
 
 @pytest.mark.parametrize("seed", [3, 11, 1543])
 def test_invariants_hold_under_lookahead_with_failures(seed):
     m = run_with_failures("lookahead", seed)
-    assert m.status == "completed" and m.ctx.field.delivered == m.ctx.field.minerals_total
+    assert m.status == "completed" and m.ctx.terrain.delivered == m.ctx.terrain.minerals_total
 
 
 def test_invariants_hold_under_lookahead_on_small_worlds():
@@ -144,4 +144,4 @@ def test_switching_to_and_from_lookahead_mid_pipeline_loses_nothing():
     m.advance(900)
     m.set_policy("coalition")
     m.run()
-    assert m.status == "completed" and m.ctx.field.delivered == 64
+    assert m.status == "completed" and m.ctx.terrain.delivered == 64

@@ -33,7 +33,7 @@ def scenarios(draw):
 def test_invariants_hold_at_every_event(seed, scenario, policy):
     m = Mission(scenario, seed, policy)
     run_checked(m)
-    assert m.ctx.field.sites_found == len(m.ctx.field.sites)
+    assert m.ctx.terrain.sites_found == len(m.ctx.terrain.sites)
 
 
 @st.composite
@@ -68,8 +68,8 @@ def test_missions_survive_abrupt_failures(seed, policy, plan):
     m.run()
     watch.final()
     assert m.status == "completed", (failures, m.metrics())
-    assert m.ctx.field.delivered == m.ctx.field.minerals_total
-    assert m.ctx.field.sites_found == len(m.ctx.field.sites)
+    assert m.ctx.terrain.delivered == m.ctx.terrain.minerals_total
+    assert m.ctx.terrain.sites_found == len(m.ctx.terrain.sites)
 
 
 @given(

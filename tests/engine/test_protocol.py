@@ -104,7 +104,7 @@ def test_policy_2_paired_haulers_carry_their_excavators_minerals_without_auction
         for a in m.auctions
         if a.kind == "excavator_hauler" and a.status == "closed" and a.reauction_of is None
     ]
-    assert len(coalition) + len(auctioned) == m.ctx.field.minerals_total
+    assert len(coalition) + len(auctioned) == m.ctx.terrain.minerals_total
 
 
 def test_operator_switches_policy_mid_mission_and_it_is_recorded():

@@ -64,4 +64,4 @@ def test_each_scouts_route_moves_outward_from_the_plant():
 def test_a_whole_mission_scans_every_scannable_cell_once():
     m = Mission(reference_scenario(), seed=5, policy="fcfs")
     m.advance(1e6)
-    assert m.ctx.field.scanned_count == len(scannable(m.world.grid))
+    assert m.ctx.terrain.scanned_count == len(scannable(m.world.grid))

@@ -106,7 +106,7 @@ class Chaos:
             self.inject()
 
     def inject(self) -> None:
-        f = self.m.fleet.world.field
+        f = self.m.fleet.world.terrain
         task_type = self.rng.choice(["excavate", "transport"])
         spots = [(s.x, s.y) for s in f.sites if s.found_at is not None]
         spots += [(g.x, g.y) for g in list(f.ground)]
@@ -126,7 +126,7 @@ class Chaos:
 
 def _conserved(m: FieldMission, seed: int) -> dict[str, int]:
     where = m.fleet.world.minerals_in()
-    total = m.fleet.world.field.minerals_total
+    total = m.fleet.world.terrain.minerals_total
     assert sum(where.values()) == total, f"seed {seed}: minerals not conserved: {where} of {total}"
     return where
 
@@ -293,7 +293,7 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
                 time.sleep(0.1)
             where = _conserved(m, seed)
             assert m.status == "completed", f"seed {seed}: {m.status} {where}"
-            assert where["delivered"] == m.fleet.world.field.minerals_total, where
+            assert where["delivered"] == m.fleet.world.terrain.minerals_total, where
             assert where["aboard"] == where["ground"] == where["sites"] == 0, where
             _records_sound(m, seed)
             print(

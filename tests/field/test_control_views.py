@@ -29,8 +29,8 @@ class StandInFleet:
     def __init__(self, scenario: Scenario, seed: int, policy: str, speed: float, **_: Any) -> None:
         self.intake = Intake(link=None)  # type: ignore[arg-type]  # (fed by hand)
         finished = SimpleNamespace(triggered=False)
-        field = SimpleNamespace(finished=finished, finished_at=None)
-        self.world = SimpleNamespace(world=None, field=field, policy=policy, starts={})
+        terrain = SimpleNamespace(finished=finished, finished_at=None)
+        self.world = SimpleNamespace(world=None, terrain=terrain, policy=policy, starts={})
         self.procs: dict[str, Any] = {}
         self.t = 10.0
 

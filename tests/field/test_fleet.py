@@ -69,7 +69,7 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     watch = Progress("the field mission to finish")
     killed: dict[str, Any] | None = None
     added = None
-    while not fleet.world.field.finished.triggered:
+    while not fleet.world.terrain.finished.triggered:
         status = fleet.world.status()
         watch.check([status[k] for k in WORK], lambda: f"not finished: {fleet.world.status()}")
         now = fleet.now()

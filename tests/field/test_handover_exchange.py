@@ -195,7 +195,7 @@ def run(session: object, steps: list[str]) -> tuple[Robot, Robot]:
             elif step == "deliver" and hauler.alive and hauler.bin:
                 team.ask(hauler.name, "deliver", once=f"hauler-1@z/d-{len(w.done)}", by="hauler-1")
                 hauler.bin = 0
-            elif step == "dig" and exc.alive and not exc.bucket and w.field.sites[0].remaining:
+            elif step == "dig" and exc.alive and not exc.bucket and w.terrain.sites[0].remaining:
                 _dig(team, "excavator-1")
                 exc.bucket = 1
             assert sum(w.minerals_in().values()) == total  # the world's record adds up

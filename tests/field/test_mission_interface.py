@@ -50,7 +50,7 @@ def test_a_task_is_placed_as_the_simulated_mission_places_it() -> None:
     try:
         for where in [(-1.0, 5.0), (float("nan"), 1.0), (1.0,)]:
             with pytest.raises(CommandRejected) as in_field:
-                place_task(m.world, m.ctx.field.sites, 2.0, "transport", where)
+                place_task(m.world, m.ctx.terrain.sites, 2.0, "transport", where)
             with pytest.raises(CommandRejected) as in_engine:
                 m.inject_task("transport", where)
             assert str(in_field.value) == str(in_engine.value)

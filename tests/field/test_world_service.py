@@ -60,7 +60,7 @@ ROBOTS = ("scout-1", "excavator-1", "excavator-2", "hauler-1", "hauler-2")
 
 
 def _dig(team: Team, by: str) -> None:
-    site = team.w.field.sites[0]
+    site = team.w.terrain.sites[0]
     team.ask(by, "site_set", id=site.id, remaining=site.remaining - 1, by=by)
 
 
@@ -109,7 +109,7 @@ def test_each_once_id_moves_a_mineral_at_most_once(session: object, steps: list)
             assert _total(w) == total  # conserved at every step
         moved = sum(taken.values())
         assert w.loads.get("hauler-1", 0) == moved - len(delivered)
-        assert w.field.delivered == len(delivered)
+        assert w.terrain.delivered == len(delivered)
     finally:
         w.close()
 
@@ -137,7 +137,7 @@ def test_robots_may_ask_only_what_concerns_them(session: object) -> None:
     """Each refusal leaves the world's record as it was (every mineral where it lay)."""
     team = Team(session)
     w = team.w
-    site = w.field.sites[0]
+    site = w.terrain.sites[0]
     try:
         before = w.minerals_in()
         refusals = [
@@ -165,7 +165,7 @@ def test_robots_may_ask_only_what_concerns_them(session: object) -> None:
         for name, op, args in refusals:
             with pytest.raises(Refused):
                 team.ask(name, op, **args)
-        assert w.minerals_in() == before and w.field.sites_found == 0
+        assert w.minerals_in() == before and w.terrain.sites_found == 0
         _dig(team, "excavator-1")
         # a hand-over without the excavator's signed consent, or with another's
         args = {"once": "excavator-1@z/h", "by": "hauler-1", "src": "excavator-1", "x": 0, "y": 0}
@@ -203,7 +203,7 @@ def test_a_dig_asked_again_after_a_late_reply_is_not_a_second_dig(session: objec
     (that left an excavator believing it held a mineral the world did not: a stalled run)."""
     team = Team(session)
     w = team.w
-    site = w.field.sites[0]
+    site = w.terrain.sites[0]
     try:
         team.ask("excavator-1", "site_set", id=site.id, worker="excavator-1", by="excavator-1")
         before = site.remaining
