@@ -136,8 +136,13 @@ async def _session(server: LiveServer, seed: int) -> tuple[Watcher, list[Watcher
         done = asyncio.Event()
         operating = asyncio.create_task(_operate(api, base, rng, done))
         late: list[Watcher] = []
-        for _ in range(2):  # joins mid-mission, leaves, comes back
-            await asyncio.sleep(rng.uniform(0.3, 0.8))
+        for i in range(2):  # joins mid-mission, leaves, comes back
+            wait_s = rng.uniform(0.3, 0.8)
+            if i == 0:  # the first joins a few frames in, however slow the machine
+                while first.frames < 5:
+                    await asyncio.sleep(0.01)
+            else:
+                await asyncio.sleep(wait_s)
             late.append(Watcher(url, random.Random(rng.random())))
             await late[-1].run(frames=rng.randint(5, 15))
         late.append(Watcher(url, random.Random(rng.random())))
@@ -167,10 +172,14 @@ def test_snapshot_plus_deltas_is_the_streamed_state_at_every_step(
     assert len(did) >= 3 and first.frames > 20
     record = first.record  # type: ignore[attr-defined]
     shared = 0
+    assert late[0].ended is None, "the first late viewer joins a few frames in, mid-mission"
+    ended = False
     for other in late:
-        if other.ended is not None:  # the mission may end before the last one joins
-            assert other is late[-1] and other.ended["mission"]["status"] == record["status"]
+        if other.ended is not None:  # the mission ended before it joined (a loaded machine)
+            assert other.ended["mission"]["status"] == record["status"]
+            ended = True
             continue
+        assert not ended, "a viewer that joined after the mission's end saw it live"
         common = set(other.states) & set(first.states)
         assert common, "a late viewer's seqs are the stream's"
         for seq in common:  # two viewers at the same step hold the same state

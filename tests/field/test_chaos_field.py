@@ -255,7 +255,7 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
     rng = random.Random(seed)
     decentralized = sorted(n for n, p in POLICIES.items() if p.decentralized)
     with one_field_mission_at_a_time():
-        speed = paced(SPEED if stall is None else STALL_SPEED)
+        speed = paced(SPEED) if stall is None else min(paced(SPEED), STALL_SPEED)
         if stall is not None and speed < SPEED:  # the same starvation in mission time
             for_s, every_s = (float(x) * SPEED / speed for x in stall.split("@"))
             stall = f"{for_s:g}@{every_s:g}"
