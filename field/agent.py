@@ -57,11 +57,10 @@ peer failed at once and auctioned their tasks again, over and over on a loaded m
 BUSY_RETRIES = 4
 DELIVER_PER_TURN = 100
 ABSENCE_S = 30.0
-"""How long (wall) mission control's liveliness token must stay gone before its agents leave
-(a mission control that ends says `stop`; this is for one that died). Short absences are not
-deaths: a mission control starved of CPU on a busy machine can miss its Zenoh lease, and its
-token comes back a moment later. Agents that left at the first 3 s absence left chaos runs
-with no scout or excavator alive, stuck for good."""
+"""How long (wall) mission control may say nothing signed before its agents leave (a mission
+control that ends says `stop`; this is for one that died). Short silences are not deaths: a
+mission control starved of CPU on a busy machine answers late. Agents that left at the first
+3 s absence left chaos runs with no scout or excavator alive, stuck for good."""
 PRESENCE_POLL_S = 2.0
 REPORT_REJECTIONS_S = 1.0
 """How often (wall) an agent tells mission control what it dropped, when that changed."""
