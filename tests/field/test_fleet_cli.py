@@ -56,7 +56,7 @@ def test_fleet_run_prints_a_summary_and_shows_progress_on_a_terminal(tmp_path: P
     finally:
         os.close(main)
     lines = out.splitlines()
-    assert lines[0] == "policy nearest, seed 0, scenario tiny, field mode at 100x: completed"
+    assert lines[0] == f"policy nearest, seed 0, scenario tiny, field mode at {speed}x: completed"
     assert "  minerals        2/2 delivered" in lines and "  sites found     1/1" in lines
     assert any(ln.startswith("  processes       3 agents started") for ln in lines), out
     assert not out.lstrip().startswith("{")  # a summary, not JSON
