@@ -28,9 +28,11 @@ import zenoh
 log = logging.getLogger("regolith.field.drain")
 
 #: Items waiting for the draining thread before the oldest go (a ring) or the network
-#: thread waits (a FIFO): a few seconds of a mission's traffic at 100x.
-RING = 4096
-FIFO = 65_536
+#: thread waits (a FIFO): seconds of a mission's traffic at 100x, and with each message
+#: capped by the session (`field.transport.open_session`), a bounded amount of memory
+#: whatever a hostile sender floods.
+RING = 1024
+FIFO = 1024
 
 
 class Drain:

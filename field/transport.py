@@ -36,7 +36,7 @@ from engine.messages import (
 )
 from field.drain import Drain
 from field.link import Link
-from field.trust import Rejected
+from field.trust import MAX_REPORT, Rejected
 from field.wire import decode, encode, messages_selector
 
 log = logging.getLogger("regolith.field.transport")
@@ -49,6 +49,10 @@ def open_session(listen: str | None = None, connect: str | None = None) -> zenoh
     conf = zenoh.Config()
     conf.insert_json5("mode", '"peer"')
     conf.insert_json5("scouting/multicast/enabled", "false")
+    # Zenoh takes in messages of up to 1 GB by default; nothing honest is over a report's
+    # cap, and what waits to be checked (`field.drain`) is bounded by count x this size
+    # (a little over the cap is still taken in, so the checks count it as oversized)
+    conf.insert_json5("transport/link/rx/max_message_size", str(4 * MAX_REPORT))
     if listen:
         conf.insert_json5("listen/endpoints", json.dumps([listen]))
     if connect:
