@@ -167,18 +167,13 @@ class RegolithCollector(Collector):
             )
         yield CounterMetricFamily(
             "regolith_gc_full_collections",
-            "Full garbage collections run while missions were live (dropped engines' cycles).",
+            "Full garbage collections run while missions were live (the frozen heap doubled).",
             self.runner.gc_pause.full,
         )
         yield CounterMetricFamily(
             "regolith_gc_full_collection_seconds",
             "Time spent in those full collections (the event loop waits meanwhile).",
             self.runner.gc_pause.full_seconds,
-        )
-        yield GaugeMetricFamily(
-            "regolith_gc_engines_pending",
-            "Dropped replay engines whose memory awaits a full collection (within seconds).",
-            self.runner.gc_pause.pending,
         )
 
 

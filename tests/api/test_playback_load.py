@@ -104,9 +104,6 @@ def test_many_scrubs_beside_a_live_mission_stay_bounded(tmp_path: Path) -> None:
         _until_builders_end(api, most_built=int(built) + CAPACITY)
         assert _metric(api, "regolith_playback_engines") <= CAPACITY + WORKERS
         assert api.get(f"/api/missions/{live['id']}").json()["status"] == "running"
-        # the last dropped engines are collected within `LATE_S` of their drop: wait for it
-        while _metric(api, "regolith_gc_engines_pending") > 0:
-            time.sleep(0.2)
         grown = (server.memory_info().rss - start) / MB
         assert grown < AFTER_BOUND_MB, f"{grown:.0f} MB kept after the burst"
         worker = _metric(api, "regolith_playback_worker_rss_bytes") / MB
@@ -118,13 +115,13 @@ class _Node:
 
 
 @pytest.mark.sqlite_only  # no server: once is enough
-def test_cycles_dropped_while_the_heap_is_frozen_are_collected(
+def test_cycles_frozen_with_the_heap_are_collected_once_it_doubles(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """What the collector does for playback: objects in reference cycles, frozen with the
-    heap while a mission was live, are freed once `DROP_LIMIT` engines were dropped (they
-    stayed for the server's life before)."""
-    monkeypatch.setattr(gc_pause, "MIN_GAP_S", 0.0)
+    """Objects in reference cycles, frozen with the heap while a mission was live, are freed
+    by the full collection that runs once the frozen heap doubled (before that rule they
+    stayed for the server's life)."""
+    monkeypatch.setattr(gc_pause, "FLOOR", 0)
     pause = gc_pause.GcPause(every_s=0.0)
     try:
         nodes = []
@@ -137,10 +134,10 @@ def test_cycles_dropped_while_the_heap_is_frozen_are_collected(
         del nodes, a, b
         gc.collect()  # an ordinary collection never looks at frozen objects
         assert ref() is not None
-        pause.dropped(gc_pause.DROP_LIMIT)
-        assert pause.pending == gc_pause.DROP_LIMIT
-        pause.tick(busy=True)
-        assert ref() is None and pause.pending == 0 and pause.full == 1
+        pause.tick(busy=True)  # the first freeze counted from nothing: the heap "doubled"
+        assert ref() is None and pause.full == 1
         assert gc.get_freeze_count() > 0  # and the heap is frozen again
+        pause.tick(busy=True)  # no growth since: no second full collection
+        assert pause.full == 1
     finally:
         pause.stop()
