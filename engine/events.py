@@ -27,8 +27,18 @@ class EventLog:
     def __init__(self, clock: Callable[[], float]) -> None:
         self._clock = clock
         self.events: list[Event] = []
+        self.keep = True
+        self.emitted = 0
         self._subscribers: list[Subscriber] = []
         self.counts: dict[str, int] = {}
+
+    def stream_only(self) -> None:
+        """Hand events to the subscribers without keeping them: a headless run reads only
+        its metrics, and at scale the log is most of a mission's memory (a scale-100 run
+        makes millions of events nobody reads back during it)."""
+        if self.emitted:
+            raise RuntimeError("stream_only: events were already kept")
+        self.keep = False
 
     def subscribe(self, fn: Subscriber) -> None:
         self._subscribers.append(fn)
@@ -43,9 +53,10 @@ class EventLog:
     def append_at(self, t: float, kind: str, data: dict[str, Any]) -> Event:
         """`append` of an event that happened at `t`, elsewhere: field mode's mission control
         logs what its robots report, each at the time it happened on the robot's clock."""
-        events = self.events
-        ev = Event(len(events), t, kind, data)
-        events.append(ev)
+        ev = Event(self.emitted, t, kind, data)
+        self.emitted += 1
+        if self.keep:
+            self.events.append(ev)
         counts = self.counts
         counts[kind] = counts.get(kind, 0) + 1
         for fn in self._subscribers:

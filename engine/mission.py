@@ -50,7 +50,10 @@ class Mission(SimulatedViews):
         seed: int,
         policy: str | int = "fcfs",
         planner: PlannerKind = "ompl",
+        keep_events: bool = True,
     ) -> None:
+        """`keep_events` False: events go to the subscribers only (`EventLog.stream_only`)
+        and `events` is refused; for headless runs that want the metrics."""
         if not isinstance(seed, int) or seed < 0:
             raise ValueError("seed: must be a whole number >= 0")
         self.scenario = scenario
@@ -65,6 +68,8 @@ class Mission(SimulatedViews):
         chosen = make_planner(planner, self.world, plan_rng)
         self.env = simpy.Environment()
         self.ctx = ctx = MissionContext(scenario, self.world, chosen, self.env)
+        if not keep_events:
+            ctx.observer.log.stream_only()
         self.robots: dict[str, Robot] = {}  # the robots of ctx.robots, as their own classes
         ctx.policy = self._make_policy(self.initial_policy)
         install_realism(ctx, work_rng)
@@ -120,7 +125,10 @@ class Mission(SimulatedViews):
 
     @property
     def events(self) -> list[Event]:
-        return self.ctx.observer.log.events
+        log = self.ctx.observer.log
+        if not log.keep:
+            raise RuntimeError("events: this mission streams its events (keep_events=False)")
+        return log.events
 
     @property
     def auctions(self) -> list[AuctionRecord]:
@@ -319,8 +327,9 @@ def run_mission(
     actions: Iterable[dict[str, Any]] = (),
     planner: PlannerKind = "ompl",
 ) -> dict[str, Any]:
-    """Run one mission headless to its end and return its metrics."""
-    m = Mission(scenario, seed, policy, planner)
+    """Run one mission headless to its end and return its metrics (its events are streamed,
+    not kept: nobody reads them)."""
+    m = Mission(scenario, seed, policy, planner, keep_events=False)
     try:
         for action in sorted(actions, key=lambda a: float(a["t"])):
             m.apply(action)

@@ -84,7 +84,7 @@ def run_with_progress(
     planner: PlannerKind = "ompl",
 ) -> dict[str, Any]:
     """`engine.run_mission`, showing its progress on `line` as it goes."""
-    m = Mission(scenario, seed, policy, planner)
+    m = Mission(scenario, seed, policy, planner, keep_events=False)
     try:
         try:
             for action in sorted(actions, key=lambda a: float(a["t"])):

@@ -86,3 +86,19 @@ def test_golden_traces_of_seed_0(policy):
     m = Mission(reference_scenario(), 0, policy)
     m.run()
     assert (len(m.events), trace_digest(m)) == GOLDEN[policy], policy
+
+
+def test_a_mission_that_streams_its_events_is_the_same_run():
+    """Headless runs stream their events (`keep_events=False`): the subscribers see the very
+    log a kept run holds, the metrics are the same, and the log itself is refused, never
+    silently empty."""
+    kept = Mission(reference_scenario(), 5, "nearest")
+    kept.run()
+    streamed = Mission(reference_scenario(), 5, "nearest", keep_events=False)
+    seen: list = []
+    streamed.subscribe(seen.append)
+    streamed.run()
+    assert [e.to_dict() for e in seen] == [e.to_dict() for e in kept.events]
+    assert streamed.metrics() == kept.metrics()
+    with pytest.raises(RuntimeError, match="keep_events"):
+        _ = streamed.events
