@@ -107,7 +107,8 @@ def one_mission(run: Run) -> dict[str, Any]:
     scenario = reference_scenario().scaled(scale)
     protocol = Protocol.model_validate({**scenario.protocol.model_dump(), "busy_bid": busy_bid})
     scenario = scenario.model_copy(update={"protocol": protocol})
-    m = Mission(scenario, seed, policy, planner)  # type: ignore[arg-type]
+    # headless, as `run_mission` and `regolith run`: events streamed, not kept
+    m = Mission(scenario, seed, policy, planner, keep_events=False)  # type: ignore[arg-type]
     until = 0.0
     while not m.done and time.perf_counter() - t0 < budget and until < stop:
         until = min(until + CHUNK_S, stop)
@@ -136,7 +137,7 @@ def one_mission(run: Run) -> dict[str, Any]:
         "makespan_s": metrics["makespan_s"] or m.now,
         "wall_s": wall,
         "cpu_s": cpu,
-        "events": len(m.events),
+        "events": m.ctx.observer.log.emitted,
         "messages": metrics["messages"],
         "queries": stats.queries,
         "solves": len(timed),
