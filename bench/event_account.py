@@ -7,7 +7,8 @@ engine executes to produce it.
 "Must" is what a mission of the specified protocol produces or decides, whatever the code:
 messages sent (each announcement round, bid, award, close, heartbeat...), the announcement
 deliveries after which a robot sends something (a robot that only notes an auction, busy
-or unable to win, could read it off a shared board when it next acts), the bids that can win (finite), the robots' state changes.
+or unable to win, could read it off a shared board when it next acts), the bids that can
+win (finite), the robots' state changes.
 "Executed" is what the engine runs for it: message handler calls, bidding looks
 (`Bidder.consider_bids`), planner queries. Their ratio is the distance from the protocol's
 own cost, the figure docs/benchmarks.md ("The event account") records. The counters wrap
