@@ -12,6 +12,7 @@ from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.robots.core import Assignment
 from engine.robots.handover import Taking
+from engine.robots.partnership import Partnership
 from engine.robots.rendezvous import (
     Arrived,
     Handover,
@@ -38,8 +39,7 @@ class Hauler(Robot):
         self.bin = 0
         self.taking = Taking(self)  # my side of a hand-over
         self.rendezvous: Rendezvous = LocalRendezvous(self.ctx.robots)  # (field: its agent's)
-        self.partner_site: Point | None = None
-        self._partner_done: set[str] = set()  # sites my partner finished or left
+        self.partnership = Partnership(self)  # Policy 2's partner excavator
 
     def load(self) -> int:
         return self.bin
@@ -48,8 +48,8 @@ class Hauler(Robot):
         yield from self.transport(a)
 
     def when_free(self) -> Any:
-        if self.following():
-            site = self.partner_site
+        if self.partnership.following():
+            site = self.partnership.site
             assert site is not None
             if self.charging is not None and not self.charging.allows("transport", site):
                 return  # to the charger first (`Robot.life`)
@@ -189,23 +189,24 @@ class Hauler(Robot):
             t += self.ctx.docks.expected_wait_s(timing.unload_s)
         return t, plant
 
-    # --- Policy 2: follow the partner excavator ------------------------------------------
+    # --- Policy 2: follow the partner excavator (`Partnership`) ---------------------------
     def follow_partner(self) -> Any:
-        site = self.partner_site
+        partnership = self.partnership
+        site = partnership.site
         assert site is not None
         self.state = "travelling"
         yield from self.mobility.go_to(site)
         partner = self.partner
-        if self.queue or not self.following():
+        if self.queue or not partnership.following():
             return  # won a task or was released while driving: back to the main loop
         exc = self._excavator_here(lambda e: e.name == partner)
         if exc is None:
-            working = self._partner_works_at()
+            working = partnership.works_at()
             if working is not None and dist(working, site) > NEAR:
-                self.partner_site = working  # its heartbeat says it digs elsewhere: go there
+                partnership.site = working  # its heartbeat says it digs elsewhere: go there
                 return
-            if self.ctx.radio is not None and self._partner_left_site():
-                self.partner_site = None  # (a TaskDone out of reach: its heartbeat tells)
+            if self.ctx.radio is not None and partnership.left_site():
+                partnership.site = None  # (a TaskDone out of reach: its heartbeat tells)
                 return
             # not there (yet, or any more): wait for news rather than spin
             self.state = "idle"
@@ -228,20 +229,10 @@ class Hauler(Robot):
                 self.finish(self.current)
 
     def paired(self) -> bool:
-        """Paired with a live partner under a coalition policy (Policy 2)."""
-        partner = self.partner
-        return (
-            partner is not None
-            and self.ctx.policy.coalitions()
-            and self.recovery.peer_alive(partner)
-        )
+        return self.partnership.paired()
 
     def partner_working(self) -> bool:
-        return self.partner_site is not None
-
-    def following(self) -> bool:
-        """Paired, and the partner has a site: follow it there."""
-        return self.partner_site is not None and self.paired()
+        return self.partnership.site is not None
 
     def stranded(self, a: OpenAuction) -> bool:
         """No unpaired hauler is alive to take this transport (paired haulers take only their
@@ -257,51 +248,14 @@ class Hauler(Robot):
         return True
 
     def on_close_heard(self, msg: Close) -> None:
-        if msg.task_type == "excavate" and msg.allocated_to == self.partner:
-            self.partner_site = msg.location
-            self.wake()
+        self.partnership.on_close(msg)
 
     def check_peers(self) -> None:
-        """Beside the liveness checks: a paired hauler that missed the Close telling it where
-        its partner works (it was down then) sees from the partner's heartbeat that it stands
-        digging at a site, and goes there."""
         super().check_peers()
-        if self.partner is None or self.partner_site is not None or not self.paired():
-            return
-        working = self._partner_works_at()
-        if working is not None:
-            self.partner_site = working
-            self.wake()
-
-    def _partner_left_site(self) -> bool:
-        """My partner's latest heartbeat shows it holds no site any more (radio range: the
-        TaskDone that said so did not reach me)."""
-        if self.partner is None:
-            return False
-        hb = self.ctx.liveness.last_heartbeat(self.name, self.partner)
-        return hb is not None and not any(t.startswith("excavate@") for t in hb.tasks)
-
-    def _partner_works_at(self) -> Point | None:
-        """Where my partner stands digging, by its last heartbeat (None: it does not, or it is
-        the site it has just left)."""
-        if self.partner is None:
-            return None
-        hb = self.ctx.liveness.last_heartbeat(self.name, self.partner)
-        if (
-            hb is not None
-            and hb.state in ("digging", "waiting", "loading")
-            and hb.tasks
-            and hb.tasks[0] not in self._partner_done
-        ):
-            return (hb.x, hb.y)
-        return None
+        self.partnership.check()
 
     def on_task_done_heard(self, msg: TaskDone) -> None:
-        if msg.sender == self.partner and msg.task_id.startswith("excavate@"):
-            self._partner_done.add(msg.task_id)
-            self.partner_site = None
-            self.wake()
-            self.consider_bids()
+        self.partnership.on_task_done(msg)
 
     def on_revoked(self) -> None:
         self.taking.stop()
