@@ -241,10 +241,12 @@ class Bidder:
     def has_room(self) -> bool:
         """Free to win one more task: nothing reserved and no more held than the policy lets
         a robot queue (under Policies 1–3, exactly `not busy()`)."""
-        battery = self.robot.battery
+        robot = self.robot
+        battery = robot.battery
         return (
             self.reserved is None
-            and self.held() <= self.ctx.policy.queue_limit(self.rtype)
+            and (robot.current is not None) + len(robot.queue)  # held(), asked millions of times
+            <= self.ctx.policy.queue_limit(self.rtype)
             and (battery is None or not battery.must_charge)
         )
 
