@@ -147,7 +147,9 @@ class EmbeddedBus:
             return
         sender = msg.sender
         if isinstance(msg, Announce):
-            looks = self._first_looks
+            # round 0 is an auction's first announcement (or its repetition for a newcomer):
+            # news to nearly every receiver, so a first look would only say so
+            looks = self._first_looks if msg.round else {}
             for name, handler in self._audience(msg):
                 if name != sender:
                     look = looks.get(name)
