@@ -92,7 +92,9 @@ class Robot:
         self._wake_pending = False
         self.life_proc: Any = None
         self.peers = {name: self.rtype}  # name -> type, from the roster, Hello and heartbeats
-        self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
+        # latest round heard of every announced auction: where my knowledge of one lives
+        # (`_on_announce`; on the ideal bus a re-announcement is noted by `first_look`)
+        self.rounds: dict[str, int] = {}
         self.recovery = Recovery(self)
         self.house = _house_for(self)
         self.bidder: Bidder | None = None  # a robot type that bids sets its own
