@@ -17,11 +17,18 @@ from engine.messages import Announce, Heartbeat, Message
 from engine.scenario import BusConfig
 
 Handler = Callable[[Message], None]
+FirstLook = Callable[[Announce], bool]
+"""A subscriber's cheap first look at an announcement on the ideal bus (`EmbeddedBus.subscribe`)."""
 
 
 class Bus(Protocol):
     def subscribe(
-        self, name: str, handler: Handler, rtype: str = "", hears: frozenset[str] | None = None
+        self,
+        name: str,
+        handler: Handler,
+        rtype: str = "",
+        hears: frozenset[str] | None = None,
+        first_look: FirstLook | None = None,
     ) -> None: ...
 
     def publish(self, msg: Message) -> None: ...
@@ -46,6 +53,7 @@ class EmbeddedBus:
         self._subscribers: dict[str, Handler] = {}
         self._rtypes: dict[str, str] = {}
         self._hears: dict[str, frozenset[str] | None] = {}
+        self._first_looks: dict[str, FirstLook] = {}
         self._audiences: dict[tuple[str, str], list[tuple[str, Handler]]] = {}
         self._everyone: list[tuple[str, Handler]] = []
         self.published = 0
@@ -53,13 +61,28 @@ class EmbeddedBus:
         self._ideal = config.loss == 0.0 and config.latency_s == 0.0 and config.jitter_s == 0.0
 
     def subscribe(
-        self, name: str, handler: Handler, rtype: str = "", hears: frozenset[str] | None = None
+        self,
+        name: str,
+        handler: Handler,
+        rtype: str = "",
+        hears: frozenset[str] | None = None,
+        first_look: FirstLook | None = None,
     ) -> None:
         """`hears`: the task types whose announcements this subscriber acts on (None: all);
-        it also gets every announcement from a sender of its own `rtype`."""
+        it also gets every announcement from a sender of its own `rtype`.
+
+        `first_look`: on the ideal bus, an announcement goes to it before the handler; it
+        notes what the subscriber learns (a re-announcement's round) and answers True when
+        that is all the handler would have done. Most announcements at scale are rounds of
+        auctions nobody could take yet, heard by hundreds of busy robots that only note the
+        round: this saves each of them the whole path through the handler."""
         self._subscribers[name] = handler
         self._rtypes[name] = rtype
         self._hears[name] = hears
+        if first_look is None:
+            self._first_looks.pop(name, None)
+        else:
+            self._first_looks[name] = first_look
         self._audiences.clear()
         self._everyone = list(self._subscribers.items())  # a new list: never changed in place
 
@@ -122,9 +145,18 @@ class EmbeddedBus:
             if handler is not None and to != msg.sender:
                 handler(msg)
             return
-        receivers = self._audience(msg) if isinstance(msg, Announce) else self._everyone_now()
         sender = msg.sender
-        for name, handler in receivers:
+        if isinstance(msg, Announce):
+            # round 0 is an auction's first announcement (or its repetition for a newcomer):
+            # news to nearly every receiver, so a first look would only say so
+            looks = self._first_looks if msg.round else {}
+            for name, handler in self._audience(msg):
+                if name != sender:
+                    look = looks.get(name)
+                    if look is None or not look(msg):
+                        handler(msg)
+            return
+        for name, handler in self._everyone_now():
             if name != sender:
                 handler(msg)
 

@@ -41,6 +41,7 @@ from field.wire import decode, encode, messages_selector
 
 log = logging.getLogger("regolith.field.transport")
 Handler = Callable[[Message], None]
+FirstLook = Callable[[Announce], bool]
 
 
 def open_session(listen: str | None = None, connect: str | None = None) -> zenoh.Session:
@@ -228,8 +229,15 @@ class ZenohBus:
 
     # --- the engine's Bus interface ------------------------------------------------------
     def subscribe(
-        self, name: str, handler: Handler, rtype: str = "", hears: frozenset[str] | None = None
+        self,
+        name: str,
+        handler: Handler,
+        rtype: str = "",
+        hears: frozenset[str] | None = None,
+        first_look: FirstLook | None = None,
     ) -> None:
+        """One robot's bus: every message goes to its handler (`first_look` is a shortcut of
+        the simulation's ideal bus; here each copy really arrives on its own)."""
         self.name, self._handler = name, handler
 
     def publish(self, msg: Message) -> None:

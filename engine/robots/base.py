@@ -92,14 +92,16 @@ class Robot:
         self._wake_pending = False
         self.life_proc: Any = None
         self.peers = {name: self.rtype}  # name -> type, from the roster, Hello and heartbeats
-        self.rounds: dict[str, int] = {}  # latest round heard of every announced auction
+        # latest round heard of every announced auction: where my knowledge of one lives
+        # (`_on_announce`; on the ideal bus a re-announcement is noted by `first_look`)
+        self.rounds: dict[str, int] = {}
         self.recovery = Recovery(self)
         self.house = _house_for(self)
         self.bidder: Bidder | None = None  # a robot type that bids sets its own
         self.search: Search | None = None  # a scout's
         self.charging: Charging | None = None if self.battery is None else Charging(self)
         ctx.liveness.add(name)
-        ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears)
+        ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears, self.first_look)
 
     # --- what the parts hold, as the rest of the engine reads it ---------------------------
     @property
@@ -305,6 +307,34 @@ class Robot:
         handler = _HANDLERS.get(type(msg))
         if handler is not None:
             handler(self, msg)
+
+    def first_look(self, msg: Announce) -> bool:
+        """The ideal bus's shortcut for an announcement (`EmbeddedBus.subscribe`): answers True
+        when hearing it would only update `rounds` (a later round of an auction I know, of a
+        task I neither hold nor finished, that leaves my bidder quiet) and notes the round
+        here; anything else is False and goes to `_on_announce` as usual.
+
+        `rounds` is where my knowledge of an announced auction lives (its latest round, read
+        when I bid); `bidder.biddable` holds those I could serve. Both are written exactly as
+        `_on_announce` would: this only spares a busy robot the handler's path."""
+        if not self.alive:
+            return True  # hears nothing (`on_message`)
+        aid, rounds = msg.auction_id, self.rounds
+        if aid not in rounds:
+            return False  # a new auction to me
+        task_id = msg.task_id
+        if task_id in self.recovery.completed:
+            return False  # I say it is done
+        cur = self.current
+        if (cur is not None and cur.task_id == task_id) or (
+            self.queue and any(a.task_id == task_id for a in self.queue)
+        ):
+            return False  # I say I hold it
+        bidder = self.bidder
+        if bidder is not None and aid in bidder.biddable and not bidder.stays_quiet():
+            return False  # the new round may draw a bid from me
+        rounds[aid] = msg.round
+        return True
 
     # --- tasks --------------------------------------------------------------------------
     def assign(self, a: Assignment) -> None:

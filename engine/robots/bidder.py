@@ -241,10 +241,12 @@ class Bidder:
     def has_room(self) -> bool:
         """Free to win one more task: nothing reserved and no more held than the policy lets
         a robot queue (under Policies 1–3, exactly `not busy()`)."""
-        battery = self.robot.battery
+        robot = self.robot
+        battery = robot.battery
         return (
             self.reserved is None
-            and self.held() <= self.ctx.policy.queue_limit(self.rtype)
+            and (robot.current is not None) + len(robot.queue)  # held(), asked millions of times
+            <= self.ctx.policy.queue_limit(self.rtype)
             and (battery is None or not battery.must_charge)
         )
 
@@ -331,6 +333,20 @@ class Bidder:
             bids = self._within_reach(bids)
         for a, rnd, utility in bids:
             self._bid(a, rnd, utility)
+
+    def stays_quiet(self) -> bool:
+        """Would `consider_bids` return at once? Busy, and neither my auction list nor the
+        policy changed since I last had nothing to send (`_note_quiet`). Asked by the ideal
+        bus's first look at a re-announcement (`Robot.first_look`), so that a busy robot only
+        notes the round instead of going through the whole handler."""
+        order = self._in_order
+        return (
+            order is not None
+            and self._quiet_on is order
+            and self._quiet_policy is self.ctx.policy
+            and not self._every_round
+            and not self.has_room()
+        )
 
     def _note_quiet(self, auctions: list[OpenAuction], policy: Policy) -> None:
         """Remember that, busy, I had nothing to send for this list (an object never changed

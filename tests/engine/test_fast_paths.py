@@ -7,6 +7,9 @@ injected tasks) and buses (ideal, lossy, late):
 - an announcement reaches only the robots that can act on it (`EmbeddedBus._audience`),
   not every robot; a broadcast goes down the list of subscribers made when the last one
   subscribed (`EmbeddedBus._everyone_now`), not a copy made per message;
+- on the ideal bus a robot's first look at an announcement notes a re-announcement's round
+  itself when that is all the handler would do (`Robot.first_look`, `Bidder.stays_quiet`),
+  instead of every announcement going through `on_message`;
 - a busy robot that said -inf in every target skips the bidding rules
   (`engine.bidding.refused_all`), and under a policy whose targets come from the auction
   list alone it is not asked again until the list or its bids change (`Bidder._note_quiet`);
@@ -35,6 +38,7 @@ from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
 from engine.liveness import Liveness
 from engine.policies import FirstComeFirstServed, check_policy
+from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
 from engine.scenario import Crater
 from engine.world import CLEARANCE, CraterIndex
@@ -104,6 +108,7 @@ def test_shortcuts_change_nothing(seed, policy, bus, busy_bid, actions):
         mp.setattr(engine.robots.bidder.Bidder, "_note_quiet", lambda self, auctions, policy: None)
         mp.setattr(Bidder, "note_auction", _plain_note)
         mp.setattr(Bidder, "forget_auction", _plain_forget)
+        mp.setattr(Robot, "first_look", lambda self, msg: False)
         plain = _play(scenario, seed, policy, plan)
     assert fast == plain
 
