@@ -24,6 +24,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -32,7 +33,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import engine.robots.bidder
-from engine import POLICIES, Mission
+from engine import POLICIES, Mission, reference_scenario
 from engine.bidding import OpenAuction
 from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
@@ -210,3 +211,26 @@ def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_l
     check_policy(Restated)
     assert not POLICIES["coalition"].targets_from_list
     assert not POLICIES["lookahead"].targets_from_list
+
+
+def test_a_quiet_robot_is_quiet_no_more_once_it_has_room():
+    """`Bidder.stays_quiet` (the first look's shortcut) holds only while `consider_bids` would
+    return at once: a robot freed since its quiet look must be asked again. Random missions
+    rarely catch this (a freed robot bids at once, which clears the cache itself), so it is
+    checked on a robot caught quiet."""
+    m = Mission(reference_scenario(), 0, "fcfs")
+    quiet = None
+    while quiet is None and not m.done:
+        m.advance(m.now + 25.0)
+        quiet = next(
+            (r for r in m.robots.values() if r.bidder is not None and r.bidder.stays_quiet()),
+            None,
+        )
+    assert quiet is not None and quiet.bidder is not None
+    bidder = quiet.bidder
+    held = (quiet.current, quiet.queue, bidder.reserved)
+    quiet.current, quiet.queue, bidder.reserved = None, deque(), None
+    assert bidder.has_room() and not bidder.stays_quiet()
+    quiet.current, quiet.queue, bidder.reserved = held
+    assert bidder.stays_quiet()
+    m.close()
