@@ -62,6 +62,8 @@ control that ends says `stop`; this is for one that died). Short silences are no
 mission control starved of CPU on a busy machine answers late. Agents that left at the first
 3 s absence left chaos runs with no scout or excavator alive, stuck for good."""
 PRESENCE_POLL_S = 2.0
+WATCHER_JOIN_S = QUERY_TIMEOUT_S + 1.0
+"""How long `close` waits for the watch on mission control to end (it may be asking)."""
 REPORT_REJECTIONS_S = 1.0
 """How often (wall) an agent tells mission control what it dropped, when that changed."""
 
@@ -333,7 +335,10 @@ class Agent:
 
     def run(self) -> None:
         self._loop_thread = threading.get_ident()
-        threading.Thread(target=self._watch_control, name="watch control", daemon=True).start()
+        self._watcher = threading.Thread(
+            target=self._watch_control, name="watch control", daemon=True
+        )
+        self._watcher.start()
         env, clock, bus = self.env, self.clock, self.bus
         while not self.stopped.is_set():
             with self.lock:
@@ -380,6 +385,11 @@ class Agent:
 
     def close(self) -> None:
         self.stopped.set()
+        watcher = getattr(self, "_watcher", None)
+        if watcher is not None and watcher is not threading.current_thread():
+            # it may be asking the world: done before the session goes (`field.drain` says
+            # why a thread inside Zenoh at the interpreter's exit aborts the process)
+            watcher.join(WATCHER_JOIN_S)
         self.bus.close()
         with contextlib.suppress(Exception):  # the session may be gone already
             self.session.close()  # type: ignore[no-untyped-call]

@@ -13,13 +13,22 @@ So each subscriber and queryable of field mode is declared with a ring channel, 
 makes a network thread wait (when full, its oldest item goes, as on a lossy bus: the protocol
 re-sends, an asker asks again), and is drained by a thread of ours. What must not be lost (an
 agent's reports) gets a deep FIFO channel instead, which waits only once that is full.
+
+A draining thread must have ended before the interpreter finalizes: one still waiting in
+Zenoh's `recv` then wakes (the session is dropped), cannot have the GIL back, and the thread
+exit that CPython forces on it unwinds through Rust frames that catch it, which aborts the
+whole process ("FATAL: exception not rethrown", seen as `regolith fleet run` exiting with
+SIGABRT after a completed mission). So `undeclare` waits for the thread, and every drain
+still declared at exit is undeclared by an `atexit` hook, which runs before finalization.
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import logging
 import threading
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -33,6 +42,10 @@ log = logging.getLogger("regolith.field.drain")
 #: whatever a hostile sender floods.
 RING = 1024
 FIFO = 1024
+#: how long `undeclare` waits for the draining thread to finish the item in hand
+JOIN_S = 2.0
+
+_declared: weakref.WeakSet[Drain] = weakref.WeakSet()
 
 
 class Drain:
@@ -57,6 +70,7 @@ class Drain:
         self._work = work
         self._thread = threading.Thread(target=self._run, name=f"drain {name}", daemon=True)
         self._thread.start()
+        _declared.add(self)
 
     def _run(self) -> None:
         while True:
@@ -73,5 +87,16 @@ class Drain:
             del item
 
     def undeclare(self) -> None:
+        """Undeclare, and wait for the draining thread to end (its channel closes)."""
+        _declared.discard(self)
         with contextlib.suppress(Exception):  # the session may be gone already
             self.declared.undeclare()
+        if threading.current_thread() is not self._thread:
+            self._thread.join(JOIN_S)
+
+
+@atexit.register
+def _undeclare_all() -> None:
+    """Every drain still declared at exit, undeclared while the interpreter still runs."""
+    for drain in list(_declared):
+        drain.undeclare()
