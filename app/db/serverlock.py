@@ -12,6 +12,7 @@ locked.)
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 from sqlalchemy import Connection, Engine, create_engine, text
@@ -84,7 +85,13 @@ class ServerLock:
 
     def release(self) -> None:
         if self._conn is not None:
-            self._conn.close()  # ends the session, and with it the lock
+            # unlocked before the close: the close returns before PostgreSQL's backend has
+            # exited (and let go of the session's locks), so a server restarted at once on a
+            # busy machine could find the lock still held and be refused
+            with contextlib.suppress(SQLAlchemyError):
+                self._conn.scalar(text("select pg_advisory_unlock(:k)"), {"k": LOCK_KEY})
+                self._conn.commit()
+            self._conn.close()  # ends the session (and the lock, had the unlock failed)
             self._conn = None
         if self._engine is not None:
             self._engine.dispose()

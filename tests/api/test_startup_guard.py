@@ -13,7 +13,10 @@ import sys
 from pathlib import Path
 
 import pytest
+from sqlalchemy import create_engine, text
+from sqlalchemy.pool import NullPool
 
+from app.db.serverlock import LOCK_KEY, ServerLock
 from app.startup import StartupRefused, preflight
 from tests.api.conftest import TOKEN, LiveServer, database_for, make_settings, run_to_end
 from tests.api.serve_process import ROOT, ServeProcess, free_port
@@ -188,3 +191,25 @@ def test_a_damaged_database_is_refused_with_what_is_wrong(tmp_path: Path) -> Non
 def test_a_file_that_is_not_a_database_is_refused(tmp_path: Path) -> None:
     (tmp_path / "regolith.db").write_bytes(b"this is not SQLite" * 1000)
     _one_line(_serve(tmp_path), "serve", "is damaged", "not a database")
+
+
+@pytest.mark.postgresql_only
+def test_a_released_advisory_lock_is_free_at_once(tmp_path: Path) -> None:
+    """A server restarted at once must find the database free. Closing the lock's connection
+    left the lock held until PostgreSQL's backend had exited, after the close returned: a
+    quick restart (the API suite's, on a quiet machine) was refused as "in use by another
+    Regolith server". Here the next server's connection is open before the release, so the
+    lock is asked for the instant `release` returns."""
+    url = database_for(tmp_path / "one")
+    assert url is not None
+    engine = create_engine(url, poolclass=NullPool)
+    try:
+        for _ in range(50):
+            lock = ServerLock(url).acquire()
+            with engine.connect() as conn:
+                conn.execute(text("select 1"))  # connected: its backend is up
+                lock.release()
+                assert conn.scalar(text("select pg_try_advisory_lock(:k)"), {"k": LOCK_KEY})
+                conn.scalar(text("select pg_advisory_unlock(:k)"), {"k": LOCK_KEY})
+    finally:
+        engine.dispose()
