@@ -56,6 +56,13 @@ def account(scale: int, policy: str, busy_bid: str, planner: str) -> dict[str, A
             return
         on_message(self, msg)
 
+    first_look = Robot.first_look
+
+    def counted_first_look(self: Robot, msg: Any) -> bool:
+        noted = first_look(self, msg)
+        announce["first looks" if not noted else "first looks that sufficed"] += 1
+        return noted
+
     consider = Bidder.consider_bids
 
     def counted_consider(self: Bidder) -> None:
@@ -74,6 +81,7 @@ def account(scale: int, policy: str, busy_bid: str, planner: str) -> dict[str, A
         state_prop.fset(self, value)
 
     Robot.on_message = counted_on_message  # type: ignore[method-assign]
+    Robot.first_look = counted_first_look  # type: ignore[method-assign]
     Bidder.consider_bids = counted_consider  # type: ignore[method-assign]
     Robot.state = property(state_prop.fget, set_state)  # type: ignore[assignment,method-assign]
 
@@ -126,6 +134,7 @@ def table(a: dict[str, Any]) -> str:
     msgs, handled, ann = a["messages"], a["handled"], a["announce"]
     first, again = ann["first hearing"], ann["again"]
     acted = ann["acted"]
+    looked = ann["first looks"] + ann["first looks that sufficed"]
     hb = msgs["heartbeat"]
     lines = [
         f"scale {a['scale']} ({a['robots']} robots), {a['policy']}: {a['wall']:.1f} s wall, "
@@ -139,8 +148,10 @@ def table(a: dict[str, Any]) -> str:
             acted,
             first + again,
             f"must: hearings after which the robot sent something (a bid, mostly); "
-            f"executed: every hearing of {msgs['announce']:,} announcements (rounds "
-            f"included), {first:,} of them first hearings",
+            f"executed: hearings through the handler, of {msgs['announce']:,} "
+            f"announcements (rounds included), {first:,} of them first hearings; "
+            f"besides, {looked:,} first looks (`Robot.first_look`), "
+            f"{ann['first looks that sufficed']:,} of which noted a round and stopped there",
         ),
         _row(
             "bidding looks",
