@@ -97,6 +97,7 @@ class Agent:
         self.lock = threading.Lock()
         self._loop_holds = False
         self._loop_thread: int | None = None
+        self._watcher: threading.Thread | None = None  # the watch on mission control (`run`)
         self._ids = itertools.count(1)
         self.stopped = threading.Event()
         self._control_heard = time.monotonic()  # the last signed word from mission control
@@ -385,7 +386,7 @@ class Agent:
 
     def close(self) -> None:
         self.stopped.set()
-        watcher = getattr(self, "_watcher", None)
+        watcher = self._watcher
         if watcher is not None and watcher is not threading.current_thread():
             # it may be asking the world: done before the session goes (`field.drain` says
             # why a thread inside Zenoh at the interpreter's exit aborts the process)
