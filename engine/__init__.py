@@ -6,7 +6,7 @@ See docs/engine-api.md. Nothing here imports the web or database layers.
 from engine.errors import CommandRejected, EngineError, UnknownRobotError
 from engine.events import Event
 from engine.interface import AuctionView, MissionInterface, MissionMode
-from engine.mission import Mission, run_mission
+from engine.mission import PLANNERS, Mission, run_mission
 from engine.policies import (
     POLICIES,
     POLICY_NAMES,
@@ -26,6 +26,7 @@ from engine.scenario import (
 )
 
 __all__ = [
+    "PLANNERS",
     "POLICIES",
     "POLICY_NAMES",
     "AuctionView",

@@ -99,8 +99,9 @@ def check_manifest(
     engine: str | None = None,
     grid: list[str] | None = None,
     run_hashes: Collection[str] = (),
+    planner: str = "ompl",
 ) -> None:
-    """Bind the directory to this scenario and engine build, or refuse another one's.
+    """Bind the directory to this scenario, engine build and planner, or refuse another one's.
 
     A grid sweep binds it to its base scenario and its grid parameters (`grid`, the dotted
     paths; their values may change like seeds do); its runs carry their points' scenario
@@ -130,6 +131,12 @@ def check_manifest(
                 f"{out_dir} holds a sweep over {_grid_text(found_grid)}, this one is over "
                 f"{_grid_text(grid)}; use a new --out"
             )
+        found_planner = existing.get("planner", "ompl")  # manifests before --planner: OMPL
+        if found_planner != planner:
+            raise SweepConflict(
+                f"{out_dir} holds a sweep planned with {found_planner!r}, this one with "
+                f"{planner!r}; use a new --out"
+            )
         return
     others = {k.scenario for k in Journal(out_dir).load()} - {scenario_hash, *run_hashes}
     if others:
@@ -142,6 +149,7 @@ def check_manifest(
         "engine": engine,
         "scenario_name": scenario.get("name"),
         "scenario": scenario,
+        "planner": planner,
     }
     if grid is not None:
         manifest["grid"] = grid

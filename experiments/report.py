@@ -207,6 +207,8 @@ def command(spec: SweepSpec) -> str:
         cmd += " --scenario FILE"
     if spec.scale > 1:
         cmd += f" --scale {spec.scale}"
+    if spec.planner != "ompl":
+        cmd += f" --planner {spec.planner}"
     return cmd + " --out DIR"
 
 
@@ -333,7 +335,8 @@ def render_report(spec: SweepSpec, summary: dict[str, Any]) -> str:
         f"# Policy comparison: {scen['name']} scenario, {len(spec.policies)} policies × "
         f"{n_seeds} seeds",
         "",
-        f"Scenario `{scen['name']}` (hash `{scen['hash']}`, scale {scen['scale']}), seeds "
+        f"Scenario `{scen['name']}` (hash `{scen['hash']}`, scale {scen['scale']}, planner "
+        f"{scen.get('planner', 'ompl')}), seeds "
         f"{seed_ranges(spec.seeds)}: {summary['runs']} runs. Means ± half-width of the 95% "
         f"t-interval over completed runs; significance at α={summary['alpha']} on "
         "Holm-adjusted p-values.",

@@ -130,6 +130,7 @@ def run_sweep(
             engine,
             grid=None if grid is None else grid.paths,
             run_hashes=hashes,
+            planner=spec.planner,
         )
         journal = Journal(out_dir)
         done = journal.load()
@@ -208,7 +209,7 @@ def _drive(
                 return
             pt = points.get(key.scenario)
             scenario = spec.scenario if pt is None else pt.scenario
-            fut = ex.submit(execute_run, run_fn, scenario, key.seed, key.policy)
+            fut = ex.submit(execute_run, run_fn, scenario, key.seed, key.policy, spec.planner)
             inflight[fut] = key
 
     with journal.writer() as writer:

@@ -50,6 +50,9 @@ class SweepSpec:
     scenario: Scenario
     scale: int = 1
     grid: Grid | None = None
+    planner: str = "ompl"
+    """The path planner every run plans with (`engine.PLANNERS`): part of what a run is, so
+    the manifest pins it like the scenario."""
 
     @property
     def total(self) -> int:
@@ -147,6 +150,7 @@ def make_spec(
     scenario: Scenario,
     scale: int = 1,
     grid: Sequence[GridParam] | None = None,
+    planner: str = "ompl",
 ) -> SweepSpec:
     """Check the whole spec: a sweep of zero runs or of an absurd size is an argument error.
 
@@ -155,6 +159,10 @@ def make_spec(
     """
     if scale < 1:
         raise SpecError(f"--scale {scale}: must be a whole number >= 1")
+    from engine import PLANNERS
+
+    if planner not in PLANNERS:
+        raise SpecError(f"--planner {planner!r}: expected one of {', '.join(PLANNERS)}")
     if not policies or not seeds:
         raise SpecError("a sweep needs at least one policy and one seed")
     if len(policies) * len(seeds) > MAX_RUNS:
@@ -164,4 +172,6 @@ def make_spec(
         from experiments.grid import make_grid
 
         built = make_grid(grid, scenario, MAX_RUNS // (len(policies) * len(seeds)))
-    return SweepSpec(policies=policies, seeds=seeds, scenario=scenario, scale=scale, grid=built)
+    return SweepSpec(
+        policies=policies, seeds=seeds, scenario=scenario, scale=scale, grid=built, planner=planner
+    )

@@ -91,6 +91,7 @@ def build_summary(
                 "name": getattr(spec.scenario, "name", None),
                 "hash": spec.scenario_hash,
                 "scale": spec.scale,
+                "planner": spec.planner,
             },
             "policies": [
                 {"number": p.number, "name": p.name, "label": p.label} for p in spec.policies

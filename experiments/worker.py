@@ -44,11 +44,17 @@ def engine_fingerprint() -> str:
     return ENGINE_BUILD
 
 
-def execute_run(run_fn: RunFn | None, scenario: Any, seed: int, policy: str) -> dict[str, Any]:
-    """Run one mission and return its metrics with where, how long and on which build."""
-    fn = run_fn if run_fn is not None else engine.run_mission
+def execute_run(
+    run_fn: RunFn | None, scenario: Any, seed: int, policy: str, planner: str = "ompl"
+) -> dict[str, Any]:
+    """Run one mission and return its metrics with where, how long and on which build.
+
+    `planner` goes to the engine's `run_mission`; a stand-in `run_fn` (tests) plans nothing."""
     t0 = time.perf_counter()
-    metrics = dict(fn(scenario, seed, policy))
+    if run_fn is not None:
+        metrics = dict(run_fn(scenario, seed, policy))
+    else:
+        metrics = engine.run_mission(scenario, seed, policy, planner=planner)  # type: ignore[arg-type]
     return {
         "engine": ENGINE_BUILD,
         "metrics": metrics,

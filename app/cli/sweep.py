@@ -41,6 +41,14 @@ def sweep(
     scale: Annotated[
         int, typer.Option("--scale", metavar="K", help="K× team, sites and area.")
     ] = 1,
+    planner: Annotated[
+        str,
+        typer.Option(
+            "--planner",
+            metavar="NAME",
+            help="Path planner: ompl (RRT-Connect), exact (shortest paths; at scale) or straight.",
+        ),
+    ] = "ompl",
     workers: Annotated[
         int | None,
         typer.Option("--workers", metavar="N", help="Local processes (default: all cores)."),
@@ -102,7 +110,7 @@ def sweep(
             raise SpecError(f"--scale {scale}: must be a whole number >= 1")
         params = parse_grid(grid or [], grid_file)
         scen = load_scenario(scenario) if scenario else reference_scenario()
-        spec = make_spec(pols, seed_list, scen.scaled(scale), scale, params)
+        spec = make_spec(pols, seed_list, scen.scaled(scale), scale, params, planner)
     except (SpecError, ScenarioError) as exc:
         _fail(str(exc))
 

@@ -27,6 +27,7 @@ def invoke(*args: str) -> tuple[int, str]:
         (["--policies", "1,nope"], "unknown policy 'nope'"),
         (["--scale", "0"], "--scale 0"),
         (["--workers", "0"], "--workers 0"),
+        (["--planner", "astar"], "--planner 'astar': expected one of ompl, exact, straight"),
         (["--scenario", "/nonexistent/s.toml"], "scenario file"),
     ],
 )

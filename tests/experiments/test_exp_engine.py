@@ -3,14 +3,19 @@
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from engine import parse_scenario, reference_scenario, run_mission
+from engine import POLICY_NAMES, parse_scenario, reference_scenario, resolve_policy, run_mission
 from experiments.bound import engine_bound
+from experiments.runner import run_sweep
+from experiments.spec import make_spec, parse_policies
 
 SMALL: dict[str, Any] = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
 
@@ -58,3 +63,20 @@ def test_lower_bound_on_the_reference_scenario(seed: int) -> None:
     makespans = [run_mission(reference_scenario(), seed, p)["makespan_s"] for p in (1, 2, 3, 4, 0)]
     assert bound.value <= min(makespans)
     assert bound.value >= 0.4 * min(makespans)  # and it is not vacuous
+
+
+def test_a_sweep_plans_with_its_planner(tmp_path: Path) -> None:
+    """`--planner exact`: every run is the engine's own mission on that planner, and the
+    summary and report say so."""
+    scenario = reference_scenario()
+    spec = make_spec(parse_policies("1,3", resolve_policy, POLICY_NAMES), (0, 1), scenario)
+    exact = replace(spec, planner="exact")
+    result = run_sweep(exact, tmp_path, workers=1)
+    for record in result.records:
+        alone = run_mission(scenario, record["seed"], record["policy"], planner="exact")
+        assert record["metrics"] == alone
+    ompl = run_mission(scenario, 0, "fcfs")
+    assert ompl["makespan_s"] != result.records[0]["metrics"]["makespan_s"]  # not OMPL's run
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["scenario"]["planner"] == "exact"
+    assert "--planner exact" in (tmp_path / "report.md").read_text()

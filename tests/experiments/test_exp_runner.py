@@ -147,6 +147,22 @@ def test_another_engine_build_in_the_same_dir_is_refused(spec: SweepSpec, tmp_pa
         sweep(spec, tmp_path, Counting(), outputs=False)
 
 
+def test_another_planner_in_the_same_dir_is_refused(spec: SweepSpec, tmp_path: Path) -> None:
+    sweep(spec, tmp_path, Counting(), outputs=False)
+    assert json.loads((tmp_path / "sweep.json").read_text())["planner"] == "ompl"
+    exact = make_spec(spec.policies, spec.seeds, spec.scenario, planner="exact")
+    with pytest.raises(SweepConflict, match="planned with 'ompl', this one with 'exact'"):
+        sweep(exact, tmp_path, Counting(), outputs=False)
+
+
+def test_a_manifest_from_before_planners_is_an_ompl_sweep(spec: SweepSpec, tmp_path: Path) -> None:
+    sweep(spec, tmp_path, Counting(), outputs=False)
+    manifest = json.loads((tmp_path / "sweep.json").read_text())
+    del manifest["planner"]
+    (tmp_path / "sweep.json").write_text(json.dumps(manifest))
+    assert sweep(spec, tmp_path, Counting(), outputs=False).resumed == spec.total
+
+
 def test_a_worker_with_another_engine_build_is_not_journaled(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
