@@ -12,7 +12,8 @@ beside it:
 - `charging` (`Charging`): only a robot with a battery (the energy option on; never the
   operator's console).
 
-Messages are routed to the parts by the table at the end of this module.
+Messages are routed to the parts by `engine.robots.hearing`; what a free robot does is
+`engine.robots.standby`.
 """
 
 from __future__ import annotations
@@ -23,33 +24,23 @@ from typing import TYPE_CHECKING, Any, Literal
 import simpy
 
 from engine.auction_house import AuctionHouse
-from engine.auction_rules import AUCTION_KINDS, Allocation
-from engine.bidding import OpenAuction
-from engine.geometry import Point, dist
+from engine.auction_rules import AUCTION_KINDS
+from engine.geometry import Point
 from engine.messages import (
-    Ack,
-    Announce,
-    Award,
-    Bid,
     Close,
-    Handoff,
     Hello,
-    Holding,
     Leaving,
     Message,
-    Probe,
-    Revoke,
-    Takeover,
     TaskDone,
     TaskType,
 )
-from engine.planning import PlanningError
 from engine.policies import coalition_partner
+from engine.robots import standby
 from engine.robots.charging import Charging
 from engine.robots.core import Assignment
+from engine.robots.hearing import HANDLERS, first_look
 from engine.robots.mobility import Mobility, Motion
 from engine.robots.recovery import Recovery
-from engine.terrain import NEAR
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -251,47 +242,11 @@ class Robot:
 
     def when_free(self) -> Any:
         """Nothing to do: wait until something changes (where the policy says, if it does)."""
-        radio = self.ctx.radio
-        if radio is not None and not radio.in_contact(self.name):
-            yield from self.regain_contact()
-            return
-        spot = self.ctx.policy.standby(self.name)
-        if spot is None:
-            self.state = "idle"
-            yield self.wait_for_wake()
-            return
-        if self.charging is not None and not self.charging.trip_allowed(spot):
-            return  # to the charger first (`life`)
-        if dist(self.pos, spot) > NEAR:
-            self.state = "travelling"
-            try:
-                yield from self.mobility.go_to(spot)
-            except PlanningError:
-                pass
-            else:
-                return
-        # standing by: look again now and then, in case the plan changed
-        self.state = "idle"
-        yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
+        yield from standby.when_free(self)
 
     def regain_contact(self) -> Any:
-        """Radio range: an idle robot out of the base station's reach drives back into it,
-        where auctions can reach it (and its own be heard)."""
-        radio = self.ctx.radio
-        assert radio is not None
-        spot = radio.contact_point(self.pos)
-        charging = self.charging
-        if charging is not None and not charging.trip_allowed(spot):
-            if self.rtype != "scout":
-                return  # to the charger first (`life`): it is in reach anyway
-            yield from charging.recharge()
-            return
-        self.state = "travelling"
-        try:
-            yield from self.mobility.go_to(spot)
-        except PlanningError:
-            self.state = "idle"
-            yield self.wait_for_wake() | self.env.timeout(self.ctx.scenario.protocol.heartbeat_s)
+        """Radio range: drive back into the base station's reach (`standby.regain_contact`)."""
+        yield from standby.regain_contact(self)
 
     def run_dry(self) -> None:
         """The battery is empty: the robot stops where it is, a failure like any other."""
@@ -304,37 +259,12 @@ class Robot:
         """Every message the bus brings me, handed to the part it concerns."""
         if not self.alive:
             return
-        handler = _HANDLERS.get(type(msg))
+        handler = HANDLERS.get(type(msg))
         if handler is not None:
             handler(self, msg)
 
-    def first_look(self, msg: Announce) -> bool:
-        """The ideal bus's shortcut for an announcement (`EmbeddedBus.subscribe`): answers True
-        when hearing it would only update `rounds` (a later round of an auction I know, of a
-        task I neither hold nor finished, that leaves my bidder quiet) and notes the round
-        here; anything else is False and goes to `_on_announce` as usual.
-
-        `rounds` is where my knowledge of an announced auction lives (its latest round, read
-        when I bid); `bidder.biddable` holds those I could serve. Both are written exactly as
-        `_on_announce` would: this only spares a busy robot the handler's path."""
-        if not self.alive:
-            return True  # hears nothing (`on_message`)
-        aid, rounds = msg.auction_id, self.rounds
-        if aid not in rounds:
-            return False  # a new auction to me
-        task_id = msg.task_id
-        if task_id in self.recovery.completed:
-            return False  # I say it is done
-        cur = self.current
-        if (cur is not None and cur.task_id == task_id) or (
-            self.queue and any(a.task_id == task_id for a in self.queue)
-        ):
-            return False  # I say I hold it
-        bidder = self.bidder
-        if bidder is not None and aid in bidder.biddable and not bidder.stays_quiet():
-            return False  # the new round may draw a bid from me
-        rounds[aid] = msg.round
-        return True
+    first_look = first_look
+    """The ideal bus's shortcut for a re-announcement (`engine.robots.hearing.first_look`)."""
 
     # --- tasks --------------------------------------------------------------------------
     def assign(self, a: Assignment) -> None:
@@ -455,122 +385,3 @@ def _until_interrupted(gen: Any) -> Any:
         yield from gen
     except simpy.Interrupt:
         return
-
-
-# --- messages, each to the part it concerns ---------------------------------------------------
-def _on_announce(robot: Robot, msg: Announce) -> None:
-    task_id, aid = msg.task_id, msg.auction_id
-    recovery, bidder = robot.recovery, robot.bidder
-    if task_id in recovery.completed:
-        # offered again from an old record (a watcher back from a failure that missed my
-        # TaskDone): it is done, say so again and the auctioneer withdraws it
-        robot.ctx.bus.publish(
-            TaskDone(sender=robot.name, auction_id=aid, task_id=task_id, outcome="done")
-        )
-        return
-    cur = robot.current
-    if (cur is not None and cur.task_id == task_id) or (
-        robot.queue and any(a.task_id == task_id for a in robot.queue)
-    ):
-        robot.ctx.bus.publish(Holding(sender=robot.name, task_id=task_id, auction_id=aid))
-        return
-    rounds = robot.rounds
-    if aid in rounds:  # a re-announcement: only the round is new
-        rounds[aid] = msg.round
-        if bidder is not None and aid in bidder.biddable:
-            bidder.consider_bids()
-        return
-    rounds[aid] = msg.round
-    info = OpenAuction(
-        aid,
-        msg.auctioneer,
-        msg.task_type,
-        msg.location,
-        task_id,
-        msg.opened_at,
-        msg.search_path,
-    )
-    if recovery.peer_type(msg.sender) == robot.rtype:
-        recovery.peer_open.setdefault(msg.sender, {})[aid] = info
-    # a duplicate auction for a task I am auctioning: the smaller name keeps it
-    robot.house.yield_duplicate(aid, task_id, msg.sender)
-    if robot.search is not None:  # scouts learn of sites their peers found
-        robot.search.on_task_heard(msg.task_type, task_id)
-    if bidder is not None and msg.task_type == robot.capability:
-        bidder.note_auction(info)
-        bidder.consider_bids()
-
-
-def _on_close(robot: Robot, msg: Close) -> None:
-    bidder = robot.bidder
-    if bidder is None:
-        robot.rounds.pop(msg.auction_id, None)
-        info = None
-    else:
-        info = bidder.closed(msg.auction_id)
-    peer = robot.recovery.peer_open.get(msg.sender)
-    if peer is not None:
-        peer.pop(msg.auction_id, None)
-        if msg.allocated_to is not None:
-            robot.recovery.note_peer_alloc(
-                msg.sender,
-                Allocation(
-                    msg.auction_id,
-                    msg.task_id,
-                    msg.task_type,
-                    msg.location,
-                    msg.allocated_to,
-                    float(robot.env.now),
-                ),
-            )
-    robot.on_close_heard(msg)
-    if bidder is None:
-        return
-    reserved = bidder.reserved
-    if reserved is not None and reserved.auction_id == msg.auction_id:
-        bidder.reserved = None
-        if msg.allocated_to == robot.name and robot.alive:
-            robot.assign(
-                Assignment(
-                    reserved.auction_id,
-                    reserved.auctioneer,
-                    reserved.task_type,
-                    reserved.task_id,
-                    reserved.location,
-                    reserved.search_path,
-                )
-            )
-    elif info is not None or msg.allocated_to is not None:
-        bidder.consider_bids()
-
-
-def _on_bid(robot: Robot, msg: Bid) -> None:
-    if msg.auctioneer == robot.name:
-        robot.house.on_bid(msg)
-
-
-def _on_ack(robot: Robot, msg: Ack) -> None:
-    if msg.auctioneer == robot.name:
-        robot.house.on_ack(msg)
-
-
-def _on_award(robot: Robot, msg: Award) -> None:
-    if robot.bidder is not None:
-        robot.bidder.on_award(msg)
-
-
-_HANDLERS: dict[type[Message], Any] = {
-    Announce: _on_announce,
-    Bid: _on_bid,
-    Award: _on_award,
-    Ack: _on_ack,
-    Close: _on_close,
-    TaskDone: lambda robot, msg: robot.recovery.on_task_done(msg),
-    Holding: lambda robot, msg: robot.recovery.on_holding(msg),
-    Takeover: lambda robot, msg: robot.recovery.on_takeover(msg),
-    Leaving: lambda robot, msg: robot.recovery.on_leaving(msg),
-    Hello: lambda robot, msg: robot.recovery.on_hello(msg),
-    Handoff: lambda robot, msg: robot.search and robot.search.on_handoff_heard(msg),
-    Probe: lambda robot, msg: robot.recovery.on_probe(msg),
-    Revoke: lambda robot, msg: robot.recovery.on_revoke(msg),
-}
