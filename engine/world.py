@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from engine.geometry import Point, segment_point_distance
+from engine.geometry import Point
 from engine.scenario import Crater, Scenario, ScenarioError
 
 CLEARANCE = 0.5
@@ -29,13 +30,15 @@ class CraterIndex:
                 for by in range(int((c.y - r) // bucket), int((c.y + r) // bucket) + 1):
                     self.buckets[(bx, by)].append((c.x, c.y, r))
 
-    def _near(self, x0: float, y0: float, x1: float, y1: float) -> set[tuple[float, float, float]]:
-        """Craters registered in a bucket the segment passes through. Column by column, the
-        rows the segment spans there (padded by one bucket-hundredth against rounding): the
-        buckets cost grows with the segment's length, not with its bounding box's area."""
+    def _cells(
+        self, x0: float, y0: float, x1: float, y1: float
+    ) -> Iterator[list[tuple[float, float, float]]]:
+        """The buckets the segment passes through that hold craters (a crater may be in
+        several). Column by column, the rows the segment spans there (padded by one
+        bucket-hundredth against rounding): the cost grows with the segment's length, not with
+        its bounding box's area."""
         b = self.bucket
         get = self.buckets.get
-        out: set[tuple[float, float, float]] = set()
         if x0 > x1:
             x0, y0, x1, y1 = x1, y1, x0, y0
         c0, c1 = int(x0 // b), int(x1 // b)
@@ -45,8 +48,8 @@ class CraterIndex:
                 for by in range(r0, r1 + 1):
                     cell = get((bx, by))
                     if cell:
-                        out.update(cell)
-            return out
+                        yield cell
+            return
         dx, dy = x1 - x0, y1 - y0
         pad = b / 100.0
         for bx in range(c0, c1 + 1):
@@ -61,17 +64,35 @@ class CraterIndex:
             for by in range(int((ya - pad) // b), int((yb + pad) // b) + 1):
                 cell = get((bx, by))
                 if cell:
-                    out.update(cell)
-        return out
+                    yield cell
 
     def point_free(self, x: float, y: float) -> bool:
-        return all(math.hypot(x - cx, y - cy) > r for cx, cy, r in self._near(x, y, x, y))
+        hypot = math.hypot
+        for cell in self._cells(x, y, x, y):
+            for cx, cy, r in cell:
+                if not hypot(x - cx, y - cy) > r:
+                    return False
+        return True
 
     def segment_free(self, a: Point, b: Point) -> bool:
-        return all(
-            segment_point_distance(a, b, (cx, cy)) > r
-            for cx, cy, r in self._near(a[0], a[1], b[0], b[1])
-        )
+        """No crater (with its margin) within reach of the segment: the first one found
+        answers, with `segment_point_distance`'s arithmetic inlined (the planner asks this
+        hundreds of thousands of times a mission)."""
+        ax, ay = a
+        dx, dy = b[0] - ax, b[1] - ay
+        seg2 = dx * dx + dy * dy
+        hypot = math.hypot
+        for cell in self._cells(ax, ay, b[0], b[1]):
+            for cx, cy, r in cell:
+                if seg2 == 0.0:
+                    d = hypot(cx - ax, cy - ay)
+                else:
+                    u = ((cx - ax) * dx + (cy - ay) * dy) / seg2
+                    u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+                    d = hypot(ax + u * dx - cx, ay + u * dy - cy)
+                if not d > r:
+                    return False
+        return True
 
 
 @dataclass(frozen=True, slots=True)
