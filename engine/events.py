@@ -30,6 +30,7 @@ class EventLog:
         self.keep = True
         self.emitted = 0
         self._subscribers: list[Subscriber] = []
+        self._readers = 0  # subscribers that read payloads
         self.counts: dict[str, int] = {}
 
     def stream_only(self) -> None:
@@ -40,8 +41,25 @@ class EventLog:
             raise RuntimeError("stream_only: events were already kept")
         self.keep = False
 
-    def subscribe(self, fn: Subscriber) -> None:
+    def subscribe(self, fn: Subscriber, *, payloads: bool = True) -> None:
+        """`payloads` False: `fn` reads only an event's kind and time, and never one of a kind
+        counted without its payload (`count_unread`)."""
         self._subscribers.append(fn)
+        if payloads:
+            self._readers += 1
+
+    @property
+    def unread(self) -> bool:
+        """Nobody will read an event's payload: the log keeps none and no subscriber reads
+        them (a headless run, which reads only its metrics)."""
+        return not self.keep and not self._readers
+
+    def count_unread(self, kind: str) -> None:
+        """An event of `kind` that nobody reads (`unread`): numbered and counted like every
+        other, without building it (a scale-100 run records millions of messages)."""
+        self.emitted += 1
+        counts = self.counts
+        counts[kind] = counts.get(kind, 0) + 1
 
     def emit(self, kind: str, /, **data: Any) -> Event:
         return self.append(kind, data)

@@ -8,12 +8,13 @@ stall watch.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 from engine.auction_rules import AuctionRecord
 from engine.events import Event, EventLog
-from engine.messages import Location, Message, TaskType
+from engine.messages import Bid, Location, Message, TaskType
 
 PROGRESS = frozenset(
     {"site_found", "dug", "pickup", "delivered", "mineral_recovered", "auction_closed"}
@@ -27,7 +28,7 @@ class Observer:
         self._clock = clock
         self.log = EventLog(clock)
         self.progress_at = 0.0
-        self.log.subscribe(self._note_progress)
+        self.log.subscribe(self._note_progress, payloads=False)
         self.auctions: list[AuctionRecord] = []
         self.auctions_by_id: dict[str, AuctionRecord] = {}
         self._serial: dict[str, int] = {}
@@ -46,18 +47,22 @@ class Observer:
             self.progress_at = ev.t
 
     def record_message(self, msg: Message) -> None:
-        data = msg.to_dict()
+        """Every message said, as a `message` event (counted only, when nobody reads the
+        log's payloads); a bid also as a `bid` event."""
         log = self.log
-        log.append("message", data)
-        if data["type"] == "bid":
+        if log.unread:
+            log.count_unread("message")  # not a PROGRESS kind: nothing watches it
+        else:
+            log.append("message", msg.to_dict())
+        if isinstance(msg, Bid):
             self.bids += 1
             log.append(
                 "bid",
                 {
-                    "auction_id": data["auction_id"],
-                    "bidder": data["bidder"],
-                    "utility": data["utility"],
-                    "round": data["round"],
+                    "auction_id": msg.auction_id,
+                    "bidder": msg.bidder,
+                    "utility": msg.utility if math.isfinite(msg.utility) else None,
+                    "round": msg.round,
                 },
             )
 

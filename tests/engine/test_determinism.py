@@ -102,3 +102,18 @@ def test_a_mission_that_streams_its_events_is_the_same_run():
     assert streamed.metrics() == kept.metrics()
     with pytest.raises(RuntimeError, match="keep_events"):
         _ = streamed.events
+
+
+def test_a_mission_nobody_reads_counts_its_messages_without_building_them():
+    """With no subscriber that reads payloads (`run_mission`, the bench), messages are counted
+    rather than built as events: the same numbering, counts, bids and metrics."""
+    kept = Mission(reference_scenario(), 5, "nearest")
+    kept.run()
+    unread = Mission(reference_scenario(), 5, "nearest", keep_events=False)
+    log = unread.ctx.observer.log
+    assert log.unread
+    unread.run()
+    assert log.emitted == len(kept.events)
+    assert log.counts == kept.ctx.observer.log.counts
+    assert unread.ctx.observer.bids == kept.ctx.observer.bids
+    assert unread.metrics() == kept.metrics()
