@@ -316,7 +316,13 @@ class Bidder:
             self._note_quiet(auctions, policy)
             return
         targets = policy.bid_targets(self, auctions)
-        if quiet and refused_all(self.my_bids, targets):
+        # targets that are the whole list were answered just above (`_refused_all`, cached):
+        # a policy that bids in every auction (Policy 4) would scan them all again
+        if (
+            quiet
+            and not (policy.targets_pure and targets == auctions)
+            and refused_all(self.my_bids, targets)
+        ):
             self._bid_situation = situation
             self._note_quiet(auctions, policy)
             return
