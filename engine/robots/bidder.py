@@ -320,8 +320,8 @@ class Bidder:
             self._note_quiet(auctions, policy)
             return
         targets = policy.bid_targets(self, auctions)
-        # targets that are the whole list were answered just above (`_refused_all`, cached):
-        # a policy that bids in every auction (Policy 4) would scan them all again
+        # targets that are the whole list were answered just above (`_refused_all`): a policy
+        # that bids in every auction (Policy 4) would have them all scanned again
         if (
             quiet
             and not (policy.targets_pure and targets == auctions)
