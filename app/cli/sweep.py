@@ -46,7 +46,7 @@ def sweep(
         typer.Option(
             "--planner",
             metavar="NAME",
-            help="Path planner: ompl (RRT-Connect), exact (shortest paths; at scale) or straight.",
+            help="Path planner: ompl (RRT-Connect), exact (shortest paths; for scale) or straight.",
         ),
     ] = "ompl",
     workers: Annotated[
