@@ -17,10 +17,10 @@ from typing import TYPE_CHECKING, Any, Protocol
 import simpy
 
 from engine.bidding import BidMemory, Bids, OpenAuction, refused_all
-from engine.geometry import Point, path_length
+from engine.geometry import Point
 from engine.messages import Ack, Award, Bid, Heartbeat, TaskType
-from engine.planning import PlanningError
 from engine.policies import PendingAward, Policy
+from engine.robots.pricing import Pricing
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -62,8 +62,10 @@ class BiddingRobot(Protocol):
     def stranded(self, a: OpenAuction) -> bool: ...
 
 
-class Bidder:
-    """The bidder role of a robot, and its view for the policy."""
+class Bidder(Pricing):
+    """The bidder role of a robot, and its view for the policy (`Pricing`)."""
+
+    robot: BiddingRobot
 
     def __init__(self, robot: BiddingRobot) -> None:
         self.robot = robot
@@ -253,37 +255,6 @@ class Bidder:
             <= self.ctx.policy.queue_limit(self.rtype)
             and (battery is None or not battery.must_charge)
         )
-
-    # --- the policy's view of me (engine.bidding.RobotView) -------------------------------
-    def paired(self) -> bool:
-        return self.robot.paired()
-
-    def partner_working(self) -> bool:
-        return self.robot.partner_working()
-
-    def stranded(self, a: OpenAuction) -> bool:
-        return self.robot.stranded(a)
-
-    def free_at(self) -> tuple[float, Point]:
-        """When (seconds from now) and where this robot will be free, by its own estimate."""
-        return self.robot.free_at()
-
-    def eta_to(self, a: OpenAuction) -> float:
-        """Seconds until this robot could stand at the task: finish what it holds, then drive."""
-        wait, start = self.free_at()
-        try:
-            length = path_length(self.ctx.planner.plan(start, a.location))
-        except PlanningError:
-            return math.inf
-        return wait + length / self.robot.mobility.speed
-
-    def cost_to(self, a: OpenAuction) -> float:
-        """Length of the path this robot would drive to the task (docs/spec.md §6.2); inf if
-        there is none."""
-        try:
-            return path_length(self.ctx.planner.plan(self.robot.mobility.pos, a.location))
-        except PlanningError:
-            return math.inf
 
     # --- bidding ------------------------------------------------------------------------
     def look_afresh(self) -> None:

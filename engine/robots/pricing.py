@@ -1,0 +1,64 @@
+"""What the policy asks a bidding robot (`engine.bidding.RobotView`): its pairing under
+Policy 2, when and where it will be free, and what a task would cost it to reach: the
+bidder's view for the policy, apart from its bookkeeping of auctions and bids."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Protocol
+
+from engine.bidding import OpenAuction
+from engine.geometry import Point, path_length
+from engine.planning import PlanningError
+
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+    from engine.robots.mobility import Mobility
+
+
+class PricedRobot(Protocol):
+    """What pricing needs of its robot: where it is and the type's own answers."""
+
+    mobility: Mobility
+
+    def free_at(self) -> tuple[float, Point]: ...
+    def paired(self) -> bool: ...
+    def partner_working(self) -> bool: ...
+    def stranded(self, a: OpenAuction) -> bool: ...
+
+
+class Pricing:
+    """The policy's view of a bidding robot; `Bidder` is one."""
+
+    robot: PricedRobot
+    ctx: MissionContext
+
+    def paired(self) -> bool:
+        return self.robot.paired()
+
+    def partner_working(self) -> bool:
+        return self.robot.partner_working()
+
+    def stranded(self, a: OpenAuction) -> bool:
+        return self.robot.stranded(a)
+
+    def free_at(self) -> tuple[float, Point]:
+        """When (seconds from now) and where this robot will be free, by its own estimate."""
+        return self.robot.free_at()
+
+    def eta_to(self, a: OpenAuction) -> float:
+        """Seconds until this robot could stand at the task: finish what it holds, then drive."""
+        wait, start = self.free_at()
+        try:
+            length = path_length(self.ctx.planner.plan(start, a.location))
+        except PlanningError:
+            return math.inf
+        return wait + length / self.robot.mobility.speed
+
+    def cost_to(self, a: OpenAuction) -> float:
+        """Length of the path this robot would drive to the task (docs/spec.md §6.2); inf if
+        there is none."""
+        try:
+            return path_length(self.ctx.planner.plan(self.robot.mobility.pos, a.location))
+        except PlanningError:
+            return math.inf
