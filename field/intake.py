@@ -19,15 +19,18 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from engine.messages import Heartbeat
+from field.journal import source_of
 from field.link import Link
 from field.transport import open_message
-from field.trust import CONTROL, MAX_REPORT, Rejected
+from field.trust import MAX_REPORT, WORLD, Rejected
 from field.wire import event_key
 
 Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.\-]{1,64}$")]
 Time = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-1e6, le=1e6)]
 Short = Annotated[str, Field(min_length=1, max_length=128)]
+AHEAD_MAX = 10_000
+"""Reports of one life held while an earlier one is missing (then read from its journal)."""
 
 
 class _Strict(BaseModel):
@@ -96,6 +99,13 @@ class Intake:
     agents_dropped: dict[str, int] = field(default_factory=dict)  # by agent, its own count
     lock: threading.Lock = field(default_factory=threading.Lock)
     on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
+    # the world service's events: in this process (`on_world_event`) or heard on the bus
+    world_on_bus: bool = False
+    # each life's next report number: its reports are taken in order, each once
+    next_rseq: dict[str, int] = field(default_factory=dict)
+    _ahead: dict[str, dict[int, dict[str, Any]]] = field(default_factory=dict)
+    repeats: int = 0  # reports heard again (the bus and the journal both had them)
+    _order: threading.Lock = field(default_factory=threading.Lock)
 
     @property
     def malformed(self) -> int:
@@ -124,19 +134,57 @@ class Intake:
             self.on_heard(msg.sender, (msg.x, msg.y) if isinstance(msg, Heartbeat) else None)
 
     def _report_channel(self, signer: str) -> str:
-        """A report is signed for its signer's own event key (the world service's, by
-        mission control, for `event/world`), whatever key Zenoh hands it over with."""
-        return event_key(self.link.mission, "world" if signer == CONTROL else signer)
+        """A report is signed for its signer's own event key, whatever key Zenoh hands it
+        over with."""
+        return event_key(self.link.mission, signer)
 
     def on_report(self, sample: Any) -> None:
         got = self.link.open_json(self._report_channel, sample.payload.to_bytes(), MAX_REPORT)
         if got is None:
             return
         opened, data = got
-        if opened.sender == CONTROL:
+        if opened.sender == WORLD and not self.world_on_bus:
             return  # the world service's own events: taken in once, by `on_world_event`
+        if data.get("kind") == "rejections":  # a count, not a record: the latest one counts
+            self._take_checked(opened.sender, "", data)
+        else:
+            self.offer(opened.sender, opened.cert.gen, data)
+
+    def offer(self, sender: str, gen: int, data: dict[str, Any]) -> None:
+        """A numbered report of `sender`'s life `gen`, heard on the bus or read back from its
+        journal: taken in number order, once (a later one waits for the ones before it,
+        which the journal fills in: `behind`)."""
+        rseq = data.get("rseq")
+        if type(rseq) is not int or not 0 <= rseq < 2**53:
+            self.link.opener.rejections.count(Rejected("invalid report", sender, "rseq"))
+            return
+        src = source_of(sender, gen)
+        with self._order:
+            nxt = self.next_rseq.get(src, 0)
+            if rseq < nxt:
+                self.repeats += 1
+                return
+            ahead = self._ahead.setdefault(src, {})
+            if rseq > nxt:
+                if len(ahead) < AHEAD_MAX:  # (past it: read back from the journal later)
+                    ahead[rseq] = data
+                return
+            self._take_checked(sender, src, data)
+            nxt += 1
+            while nxt in ahead:
+                self._take_checked(sender, src, ahead.pop(nxt))
+                nxt += 1
+            self.next_rseq[src] = nxt
+
+    def behind(self) -> dict[str, int]:
+        """The lives with reports missing before ones already heard: where to read from."""
+        with self._order:
+            return {src: self.next_rseq.get(src, 0) for src, ahead in self._ahead.items() if ahead}
+
+    def _take_checked(self, sender: str, src: str, data: dict[str, Any]) -> None:
+        """Taken, or counted as rejected: either way its number is used up."""
         try:
-            self.take(opened.sender, data)
+            self.take(sender, {**data, "src": src} if data.get("kind") == "event" else data)
         except Rejected as exc:
             self.link.opener.rejections.count(exc)
         except (ValidationError, ValueError, TypeError) as exc:
@@ -144,7 +192,7 @@ class Intake:
             if isinstance(exc, ValidationError) and exc.errors():
                 first = exc.errors()[0]
                 detail = f"{'.'.join(map(str, first['loc']))}: {first['msg']}"
-            self.link.opener.rejections.count(Rejected("invalid report", opened.sender, detail))
+            self.link.opener.rejections.count(Rejected("invalid report", sender, detail))
 
     def take(self, sender: str, data: dict[str, Any]) -> None:
         """One checked report from agent `sender` (Rejected or ValidationError otherwise)."""
@@ -156,10 +204,11 @@ class Intake:
             with self.lock:
                 self.auctions[rec["id"]] = rec
         elif kind == "event":
-            fields = {k: v for k, v in data.items() if k != "v"}
+            fields = {k: v for k, v in data.items() if k not in ("v", "src", "rseq")}
             ev = ReportedEvent.model_validate(fields).model_dump(mode="json")
-            if ev["by"] != sender or ev["data"].get("by", sender) != sender:
+            if ev["by"] != sender or (sender != WORLD and ev["data"].get("by", sender) != sender):
                 raise Rejected("impersonation", sender, f"event {ev['event']!r}")
+            ev["src"], ev["rseq"] = data.get("src"), data.get("rseq")
             with self.lock:
                 self.events.append(ev)
         elif kind == "rejections":

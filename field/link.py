@@ -55,9 +55,15 @@ class Link:
             self.session.put(key, payload)
 
     def ask(
-        self, key: str, req: dict[str, Any], expect: str, timeout: float
+        self,
+        key: str,
+        req: dict[str, Any],
+        expect: str | frozenset[str],
+        timeout: float,
+        limit: int = MAX_FRAME,
     ) -> dict[str, Any] | None:
-        """The reply signed by `expect` to this request, or None if none came in time."""
+        """The reply signed by `expect` (or one of them) to this request, or None if none
+        came in time; `limit`: the largest reply taken (a journal's page is larger)."""
         rid = f"{self.name}:{self.cred.gen}:{next(self._rids)}"
         # `until`: the wall time past which nobody waits for the answer (a busy answerer
         # skips it rather than spend its time on what will be thrown away)
@@ -76,11 +82,13 @@ class Link:
         for reply in replies:
             if reply.ok is None:
                 continue
-            got = self.open_json(reply_channel(key), reply.ok.payload.to_bytes())
+            got = self.open_json(reply_channel(key), reply.ok.payload.to_bytes(), limit)
             if got is None:
                 continue
             opened, data = got
-            if opened.sender != expect:
+            if not (
+                opened.sender == expect if isinstance(expect, str) else opened.sender in expect
+            ):
                 self.opener.rejections.count(
                     Rejected("wrong responder", opened.sender, f"answered {key} for {expect}")
                 )

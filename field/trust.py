@@ -36,9 +36,14 @@ from cryptography.hazmat.primitives.serialization import Encoding, PublicFormat
 log = logging.getLogger("regolith.field.trust")
 
 CONTROL = "control"
-"""Mission control's name and role on the bus: it signs commands, operator tasks and the
-world service's answers."""
-ROLES = frozenset({CONTROL, "operator", "scout", "excavator", "hauler"})
+"""Mission control's name and role on the bus: it signs commands and operator tasks."""
+WORLD = "world"
+"""The world service's name and role: it signs the world's answers, its events and the commands
+it gives the agents it supervises (`stop`). A process of its own (`field/moon.py`), so mission
+control can stop and come back while the robots mine on."""
+ROLES = frozenset({CONTROL, WORLD, "operator", "scout", "excavator", "hauler"})
+SUPERVISORS = frozenset({CONTROL, WORLD})
+"""Who an agent takes commands from."""
 
 MAGIC = b"RGF1"
 _HEAD = struct.Struct(">4sQH")  # magic, sequence number, certificate length
@@ -160,17 +165,31 @@ class Authority:
     """Mission control's signing key for one mission: issues credentials, one generation
     more for each start of the same name (a restarted robot's old key stops counting)."""
 
-    def __init__(self, mission: str, key: Ed25519PrivateKey | None = None) -> None:
+    def __init__(
+        self, mission: str, key: Ed25519PrivateKey | None = None, control_gen: int = 1
+    ) -> None:
         self.mission = mission
         self._key = key or Ed25519PrivateKey.generate()
         self.anchor = _raw_public(self._key.public_key())
-        self._gens: dict[str, int] = {}
+        self._gens: dict[str, int] = {CONTROL: control_gen - 1}
         self._lock = threading.Lock()
         self.control = self._issue(CONTROL, CONTROL, self._key)
 
+    @classmethod
+    def restore(cls, mission: str, secret: bytes, control_gen: int) -> Authority:
+        """The authority of a mission mission control started before (kept with the
+        database): its `control` certificate one generation newer than any before, so the
+        robots take the returning mission control's word over the stopped one's."""
+        return cls(mission, Ed25519PrivateKey.from_private_bytes(secret), control_gen)
+
+    @property
+    def secret(self) -> bytes:
+        """The authority's private key, raw: for the database and the world service only."""
+        return self._key.private_bytes_raw()
+
     def issue(self, name: str, role: str) -> Credential:
-        if role not in ROLES - {CONTROL} or name == CONTROL:
-            raise ValueError(f"role: {role!r} cannot be issued")
+        if role not in ROLES - {CONTROL} or name == CONTROL or (role == WORLD) != (name == WORLD):
+            raise ValueError(f"role: {role!r} cannot be issued to {name!r}")
         return self._issue(name, role, Ed25519PrivateKey.generate())
 
     def _issue(self, name: str, role: str, key: Ed25519PrivateKey) -> Credential:

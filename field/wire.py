@@ -104,6 +104,17 @@ def body_key(mission: str, name: str) -> str:
     return f"{PREFIX}/{mission}/body/{name}"
 
 
+def journal_key(mission: str, name: str) -> str:
+    """Where mission control reads back what `name` reported (`field.journal`)."""
+    return f"{PREFIX}/{mission}/journal/{name}"
+
+
+def supervisor_key(mission: str) -> str:
+    """Where mission control asks the world service's process to start, stop and list its
+    agents (`field.world_process`)."""
+    return f"{PREFIX}/{mission}/supervisor"
+
+
 def operator_key(mission: str) -> str:
     """The operator console's queryable: operator tasks to auction (`InjectTask`)."""
     return f"{PREFIX}/{mission}/operator"

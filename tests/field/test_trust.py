@@ -206,10 +206,13 @@ def test_a_report_is_signed_for_its_signers_own_event_key() -> None:
     authority = Authority("m1")
     intake = Intake(Link(None, authority.control, "test"))  # type: ignore[arg-type]
     hauler = Sealer(authority.issue("hauler-1", "hauler"))
-    world = Sealer(authority.control)
+    world = Sealer(authority.issue("world", "world"))
     opener = intake.link.opener
     assert opener.admit(intake._report_channel, hauler.seal(event_key("m1", "hauler-1"), b"{}"))
     assert opener.admit(intake._report_channel, world.seal(event_key("m1", "world"), b"{}"))
     # in another robot's name: refused, whatever key it is put on
     assert not opener.admit(intake._report_channel, hauler.seal(event_key("m1", "h-2"), b"{}"))
-    assert opener.rejections.by_reason == {"forged": 1}
+    # mission control's own certificate does not speak for the world
+    control = Sealer(authority.control)
+    assert not opener.admit(intake._report_channel, control.seal(event_key("m1", "world"), b"{}"))
+    assert opener.rejections.by_reason == {"forged": 2}
