@@ -17,6 +17,7 @@ import itertools
 import logging
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,17 +30,20 @@ from engine.scenario import Scenario
 from engine.world import generate_world
 from field.bodies import PeerBody, caller_refused, look, place_robot, serve_body
 from field.drain import Drain
+from field.journal import Journal
+from field.journal import serve as serve_journal
 from field.link import Link
 from field.remote import RemoteField
 from field.robot import FieldContext
 from field.transport import Faults, Stalls, ZenohBus, open_session
-from field.trust import CONTROL, Credential, Opened, Rejected
+from field.trust import CONTROL, SUPERVISORS, WORLD, Credential, Opened, Rejected
 from field.wire import (
     body_key,
     check_segment,
     command_key,
     decode_inject,
     event_key,
+    journal_key,
     operator_key,
     world_key,
 )
@@ -57,13 +61,13 @@ peer failed at once and auctioned their tasks again, over and over on a loaded m
 BUSY_RETRIES = 4
 DELIVER_PER_TURN = 100
 ABSENCE_S = 30.0
-"""How long (wall) mission control may say nothing signed before its agents leave (a mission
-control that ends says `stop`; this is for one that died). Short silences are not deaths: a
-mission control starved of CPU on a busy machine answers late. Agents that left at the first
-3 s absence left chaos runs with no scout or excavator alive, stuck for good."""
+"""How long (wall) the world service may say nothing signed before its agents leave (one that
+ends says `stop`; this is for one that died). Short silences are not deaths: a world service
+starved of CPU on a busy machine answers late. Agents that left at the first 3 s absence left
+chaos runs with no scout or excavator alive, stuck for good."""
 PRESENCE_POLL_S = 2.0
 WATCHER_JOIN_S = QUERY_TIMEOUT_S + 1.0
-"""How long `close` waits for the watch on mission control to end (it may be asking)."""
+"""How long `close` waits for the watch on the world service to end (it may be asking)."""
 REPORT_REJECTIONS_S = 1.0
 """How often (wall) an agent tells mission control what it dropped, when that changed."""
 
@@ -83,6 +87,7 @@ class Agent:
         listen: str | None = None,
         faults: Faults | None = None,
         stalls: Stalls | None = None,
+        journal: Path | None = None,
     ) -> None:
         self.name = check_segment(name, "name")
         self.mission = check_segment(mission, "mission")
@@ -97,13 +102,16 @@ class Agent:
         self.lock = threading.Lock()
         self._loop_holds = False
         self._loop_thread: int | None = None
-        self._watcher: threading.Thread | None = None  # the watch on mission control (`run`)
+        self._watcher: threading.Thread | None = None  # the watch on the world (`run`)
         self._ids = itertools.count(1)
         self.stopped = threading.Event()
-        self._control_heard = time.monotonic()  # the last signed word from mission control
+        self._world_heard = time.monotonic()  # the last signed word from the world service
         self.stalls = stalls
         self.session = open_session(listen=listen, connect=connect)
         self.link = Link(self.session, credential, f"agent {name}")
+        # what it reports, numbered and kept on its disk: read back by a mission control that
+        # was away (`field.journal`)
+        self.journal = Journal(name, credential.gen, journal)
         self._reported_rejections = 0
         self._next_rejection_report = 0.0
         spawn = self._spawn()
@@ -150,6 +158,12 @@ class Agent:
         self._commands = Drain(
             self.session.declare_subscriber, command_key(mission), self._on_command, "commands"
         )
+        self._journal = Drain(
+            self.session.declare_queryable,
+            journal_key(mission, name),
+            lambda q: serve_journal(self.link, self.journal, journal_key(mission, name), q),
+            "journal",
+        )
         self._tasks = (
             Drain(self.session.declare_queryable, operator_key(mission), self._on_task, "tasks")
             if rtype == "operator"
@@ -169,8 +183,8 @@ class Agent:
             self.lock.release()
         try:
             rep = self.link.ask(key, req, expect, QUERY_TIMEOUT_S)
-            if rep is not None and expect == CONTROL:
-                self._control_heard = time.monotonic()
+            if rep is not None and expect == WORLD:
+                self._world_heard = time.monotonic()
             return rep
         except Exception:  # the session closed under a robot still running at shutdown
             if not self.stopped.is_set():
@@ -191,7 +205,7 @@ class Agent:
         deadline = time.monotonic() + 30.0
         while time.monotonic() < deadline:
             rep = self._ask(
-                world_key(self.mission), {"op": "spawn", "args": {"name": self.name}}, CONTROL
+                world_key(self.mission), {"op": "spawn", "args": {"name": self.name}}, WORLD
             )
             if rep is not None:
                 if not rep.get("ok"):
@@ -206,7 +220,7 @@ class Agent:
         not a fact: a pile read as empty for want of a reply would be abandoned for good).
         None only for a refused request, or once the agent is stopping."""
         while True:
-            rep = self._ask(world_key(self.mission), {"op": op, "args": args}, CONTROL)
+            rep = self._ask(world_key(self.mission), {"op": op, "args": args}, WORLD)
             if rep is not None:
                 if not rep.get("ok"):
                     log.warning("world %s refused: %s", op, rep.get("error"))
@@ -260,9 +274,9 @@ class Agent:
             self.ctx.robots[msg.sender] = PeerBody(self, msg.sender, rtype)  # type: ignore[assignment]
 
     def _on_command(self, sample: Any) -> None:
-        """Commands are mission control's alone (signed with its credential)."""
+        """Commands are mission control's and the world service's (signed with theirs)."""
         got = self.link.open_json(command_key(self.mission), sample.payload.to_bytes())
-        cmd = self._from_control(got, "a command")
+        cmd = self._from_control(got, "a command", SUPERVISORS)
         if cmd is None:
             return
         if cmd.get("cmd") == "stop":
@@ -301,44 +315,52 @@ class Agent:
                 self.lock.release()
         self.link.reply(query, key, req, reply)
 
-    def _from_control(self, got: tuple[Opened, dict[str, Any]] | None, what: str) -> Any:
-        """The body of a checked frame if mission control signed it; None (counted) else."""
+    def _from_control(
+        self,
+        got: tuple[Opened, dict[str, Any]] | None,
+        what: str,
+        signers: frozenset[str] = frozenset({CONTROL}),
+    ) -> Any:
+        """The body of a checked frame if one of `signers` signed it; None (counted) else."""
         if got is None:
             return None
         opened, data = got
-        if opened.sender != CONTROL:
+        if opened.sender not in signers:
             self.link.opener.rejections.count(Rejected("not mission control", opened.sender, what))
             return None
-        self._control_heard = time.monotonic()
+        if opened.sender == WORLD:
+            self._world_heard = time.monotonic()
         return data
 
     def report(self, data: dict[str, Any]) -> None:
-        """An event or auction record for mission control (robots never read these)."""
+        """An event or auction record for mission control (robots never read these),
+        journaled first; a count of what it dropped goes unnumbered (only the latest counts)."""
+        if data.get("kind") != "rejections":
+            data = self.journal.record(data)
         try:
             self.link.put(event_key(self.mission, self.name), data, self._events)
         except Exception as exc:  # pragma: no cover - a closed session at shutdown
             log.debug("report failed: %s", exc)
 
     # --- the clock loop ---------------------------------------------------------------------
-    def _watch_control(self) -> None:
-        """Leave once mission control has said nothing signed for `ABSENCE_S` without a
-        break (slowness is not absence: a starved mission control keeps its agents). Its
-        word is a signed answer or command, never a liveliness token: anyone on the bus can
-        declare one, and a stranger's kept agents whose mission control had died running."""
+    def _watch_world(self) -> None:
+        """Leave once the world service has said nothing signed for `ABSENCE_S` without a
+        break (slowness is not absence: a starved world service keeps its agents). Mission
+        control's absence does not count: the robots mine on without it and it reads back
+        what they did (`field.journal`). The world's word is a signed answer or command,
+        never a liveliness token: anyone on the bus can declare one."""
         while not self.stopped.wait(PRESENCE_POLL_S):
-            if time.monotonic() - self._control_heard < PRESENCE_POLL_S:
+            if time.monotonic() - self._world_heard < PRESENCE_POLL_S:
                 continue  # heard from it just now, in the course of the mission
             with contextlib.suppress(Exception):  # a closed session: nobody answers
-                self._ask(world_key(self.mission), {"op": "status", "args": {}}, CONTROL)
-            if time.monotonic() - self._control_heard >= ABSENCE_S:
-                log.warning("mission control is gone: leaving")
+                self._ask(world_key(self.mission), {"op": "status", "args": {}}, WORLD)
+            if time.monotonic() - self._world_heard >= ABSENCE_S:
+                log.warning("the world service is gone: leaving")
                 self.stopped.set()
 
     def run(self) -> None:
         self._loop_thread = threading.get_ident()
-        self._watcher = threading.Thread(
-            target=self._watch_control, name="watch control", daemon=True
-        )
+        self._watcher = threading.Thread(target=self._watch_world, name="watch world", daemon=True)
         self._watcher.start()
         env, clock, bus = self.env, self.clock, self.bus
         while not self.stopped.is_set():
@@ -392,5 +414,6 @@ class Agent:
             # why a thread inside Zenoh at the interpreter's exit aborts the process)
             watcher.join(WATCHER_JOIN_S)
         self.bus.close()
+        self.journal.close()
         with contextlib.suppress(Exception):  # the session may be gone already
             self.session.close()  # type: ignore[no-untyped-call]

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import itertools
 import math
+import tempfile
 import threading
 from collections.abc import Callable, Iterable
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from engine.errors import CommandRejected, UnknownRobotError
@@ -27,10 +29,10 @@ from engine.scenario import Scenario
 from engine.team import robot_type
 from engine.terrain import Terrain
 from engine.views import MissionViews, tally
-from field.fleet import Fleet
 from field.intake import RecordView
 from field.odometer import Odometer
 from field.refusals import check_field
+from field.world_handle import WorldHandle
 
 
 class FieldMission(MissionViews):
@@ -45,12 +47,25 @@ class FieldMission(MissionViews):
         policy: str | int,
         speed: float,
         stall: str | None = None,
+        folder: Path | None = None,
+        handle: WorldHandle | None = None,
+        first_seq: int = 0,
     ) -> None:
+        """A new field mission (its world's process started, journals under `folder`), or,
+        with `handle`, one a previous server started, attached to again: its events numbered
+        on from `first_seq` (those stored)."""
         self.scenario, self.seed = scenario, seed
         self.initial_policy = resolve_policy(policy)
-        self.fleet = Fleet(scenario, seed, self.initial_policy, speed, stall=stall)
+        if handle is None:
+            folder = folder or Path(tempfile.gettempdir()) / "regolith-field"
+            handle = WorldHandle.start(scenario, seed, self.initial_policy, speed, folder, stall)
+        self.fleet = handle
         self.world = self.fleet.world.world
         self.log = EventLog(lambda: self.now)
+        self.log.emitted = first_seq
+        # event number -> the life that reported it and its number there (stored with it:
+        # a restarted server reads each life back from past what it stored)
+        self.origins: dict[int, tuple[str, int]] = {}
         self.auctions: list[RecordView] = []
         self.actions: list[dict[str, Any]] = []
         self.status = "running"
@@ -62,7 +77,6 @@ class FieldMission(MissionViews):
         self._closed = False
         self._down: set[str] | None = None  # at the end: robots down before it stay down
         self._lock = threading.Lock()
-        self.fleet.up(operator=True)
 
     # --- what the runner reads --------------------------------------------------------------
     @property
@@ -80,7 +94,7 @@ class FieldMission(MissionViews):
 
     @property
     def terrain(self) -> Terrain:
-        return self.fleet.world.terrain
+        return self.fleet.world.terrain  # type: ignore[return-value]  # (what views read)
 
     @property
     def events(self) -> list[Event]:
@@ -90,13 +104,21 @@ class FieldMission(MissionViews):
         """Agent processes of this mission still running (the server's process budget)."""
         fleet = self.fleet
         procs = [*fleet.procs.values(), *([fleet.operator] if fleet.operator else [])]
-        return sum(1 for p in procs if p.popen.poll() is None)
+        return sum(1 for p in procs if p.alive)
 
     def rejections(self) -> dict[str, Any]:
         """What this mission's processes dropped or refused from the bus: frames from
         strangers or in another's name, invalid reports (mission control), each agent's own
-        count, and requests the world service refused its members."""
-        return {**self.fleet.intake.rejections(), "world_refused": self.fleet.world.refused}
+        count, what the world service's process dropped (counted with mission control's, by
+        reason and sender), and requests the world service refused its members."""
+        mine, world = self.fleet.intake.rejections(), self.fleet.world.dropped
+        for part in ("by_reason", "by_sender"):
+            merged = dict(mine[part])
+            for k, n in (world.get(part) or {}).items():
+                merged[k] = merged.get(k, 0) + int(n)
+            mine[part] = dict(sorted(merged.items()))
+        mine["total"] += int(world.get("total") or 0)
+        return {**mine, "world_refused": self.fleet.world.refused}
 
     def subscribe(self, fn: Callable[[Event], None]) -> None:
         self.log.subscribe(fn)
@@ -132,30 +154,43 @@ class FieldMission(MissionViews):
             data = dict(e.get("data") or {})
             if e.get("by") not in (None, "world"):
                 data.setdefault("robot", e["by"])
-            self.log.append_at(float(e.get("t", self.now)), str(e.get("event")), data)
+            ev = self.log.append_at(float(e.get("t", self.now)), str(e.get("event")), data)
+            if e.get("src") is not None:
+                self.origins[ev.seq] = (str(e["src"]), int(e["rseq"]))
         for fn, aid in itertools.product(self._auction_watchers, changed):
             fn(aid)
 
     def _end(self, status: str) -> None:
+        self.fleet.catch_up()  # every report up to the end, before the end is logged
+        self._take_in()
         self.status = status
         makespan = self.terrain.finished_at
         self.log.emit("mission_ended", status=status, makespan_s=makespan)
         self.close()
 
     def close(self) -> None:
+        """End the mission's processes (the world's and its agents)."""
+        self._let_go(stop=True)
+
+    def detach(self) -> None:
+        """Let go of the mission and leave its processes running (a server that stops: the
+        robots mine on, and the next server attaches again)."""
+        self._let_go(stop=False)
+
+    def _let_go(self, stop: bool) -> None:
         with self._lock:
             if self._closed:
                 return
             self._closed = True
-        self._down = {n for n, p in self.fleet.procs.items() if p.popen.poll() is not None}
-        self.fleet.close()
+        self._down = {n for n, p in self.fleet.procs.items() if not p.alive}
+        self.fleet.close(stop=stop)
 
     # --- views ------------------------------------------------------------------------------
     def _robot(self, name: str, full: bool) -> dict[str, Any]:
         hb = self.fleet.intake.heartbeats.get(name)
         proc = self.fleet.procs.get(name)
         ended = self._down is not None and name not in self._down  # (its process ended with it)
-        alive = proc is not None and (ended or proc.popen.poll() is None)
+        alive = proc is not None and (ended or proc.alive)
         rtype = robot_type(name)
         distance = self.odometer.metres.get(name, 0.0)
         if hb is None:
@@ -243,10 +278,13 @@ class FieldMission(MissionViews):
         proc = self.fleet.procs.get(name)
         if proc is None:
             raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
-        if proc.popen.poll() is not None:
+        if not proc.alive:
             raise CommandRejected(f"robot {name!r} is already failed")
         self._record("disable_robot", name=name, mode="abrupt")
-        self.fleet.kill(name)
+        try:
+            self.fleet.kill(name)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
         self.log.emit("robot_failed", robot=name)
 
     def enable_robot(self, name: str) -> None:
@@ -254,10 +292,13 @@ class FieldMission(MissionViews):
         proc = self.fleet.procs.get(name)
         if proc is None:
             raise UnknownRobotError(f"robot {name!r} does not exist in this mission")
-        if proc.popen.poll() is None:
+        if proc.alive:
             raise CommandRejected(f"robot {name!r} is not disabled")
         self._record("enable_robot", name=name)
-        self.fleet.spawn(name)
+        try:
+            self.fleet.spawn(name)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
         self.log.emit("robot_enabled", robot=name)
 
     def add_robot(self, rtype: str, position: tuple[float, float] | None = None) -> str:

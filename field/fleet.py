@@ -19,6 +19,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from engine.robots import OPERATOR
@@ -29,7 +30,7 @@ from field.intake import Intake
 from field.link import Link
 from field.refusals import check_field
 from field.transport import Stalls, open_session
-from field.trust import Authority, Credential
+from field.trust import WORLD, Authority, Credential
 from field.wire import (
     PREFIX,
     InjectTask,
@@ -55,7 +56,12 @@ class Proc:
     name: str
     popen: subprocess.Popen[bytes]
     started_at: float
+    gen: int
     killed_at: float | None = None
+
+    @property
+    def alive(self) -> bool:
+        return self.popen.poll() is None
 
 
 class Fleet:
@@ -69,7 +75,12 @@ class Fleet:
         mission: str | None = None,
         listen_host: str = "127.0.0.1",
         stall: str | None = None,
+        authority: Authority | None = None,
+        journal: Path | None = None,
+        moon: bool = False,
     ) -> None:
+        """`moon`: this is the world service's own process (`field.moon`): it speaks as the
+        world, and mission control, another process, takes the agents' reports."""
         check_field(scenario=scenario, policy=policy, speed=speed)  # before any process starts
         self.mission = mission or f"m{uuid.uuid4().hex[:10]}"
         self.port = port or free_port()
@@ -80,8 +91,16 @@ class Fleet:
         self.stall = stall  # injected starvation for every agent (`Stalls`, FOR@EVERY)
         self.session = open_session(listen=self.endpoint)
         # the mission's authority: only the processes it issues credentials to are heard
-        self.authority = Authority(self.mission)
-        self.link = Link(self.session, self.authority.control, f"mission {self.mission}")
+        self.authority = authority or Authority(self.mission)
+        self.journal = journal
+        self.world_link = Link(
+            self.session, self.authority.issue(WORLD, WORLD), f"world {self.mission}"
+        )
+        self.link = (
+            self.world_link
+            if moon
+            else Link(self.session, self.authority.control, f"mission {self.mission}")
+        )
         self.intake = Intake(self.link)
         self._subs = [
             Drain(
@@ -97,9 +116,15 @@ class Fleet:
                 "intake reports",
                 lossless=True,
             ),
-        ]
+        ][: 1 if moon else 2]
         self.world = WorldService(
-            self.link, scenario, seed, policy, speed, self.intake.on_world_event
+            self.world_link,
+            scenario,
+            seed,
+            policy,
+            speed,
+            None if moon else self.intake.on_world_event,
+            journal,
         )
         self.intake.on_heard = self.world.note_heard
         self.procs: dict[str, Proc] = {}
@@ -117,7 +142,8 @@ class Fleet:
     def spawn(self, name: str) -> Proc:
         rtype = robot_type(name)
         self._counts[rtype] = max(self._counts.get(rtype, 0), int(name.rsplit("-", 1)[1]))
-        proc = Proc(name, self._start(name), self.now())
+        popen, gen = self._start(name)
+        proc = Proc(name, popen, self.now(), gen)
         self.procs[name] = proc
         self.history.append(proc)
         self._settled.pop(name, None)
@@ -128,7 +154,7 @@ class Fleet:
         for an agent started here or on another machine (docs/field.md)."""
         return self.authority.issue(name, robot_type(name))
 
-    def _start(self, name: str) -> subprocess.Popen[bytes]:
+    def _start(self, name: str) -> tuple[subprocess.Popen[bytes], int]:
         """An agent process; its credential goes in on its standard input (no file, no
         command line, nothing another user of the machine can read)."""
         cred = self.credential(name)
@@ -146,6 +172,7 @@ class Fleet:
             "--credentials",
             "-",
             *(["--stall", self.stall] if self.stall else []),
+            *(["--journal", str(self.journal)] if self.journal else []),
         ]
         popen = subprocess.Popen(  # its own process group: killed as a whole
             cmd,
@@ -159,13 +186,14 @@ class Fleet:
             popen.stdin.write(cred.to_json().encode() + b"\n")
         with contextlib.suppress(BrokenPipeError):
             popen.stdin.close()
-        return popen
+        return popen, cred.gen
 
     def up(self, operator: bool = False) -> None:
         """One agent per robot of the roster and, with `operator`, the operator's console (an
         agent with no body that auctions operator tasks: `inject`)."""
         if operator:
-            self.operator = Proc(OPERATOR, self._start(OPERATOR), self.now())
+            popen, gen = self._start(OPERATOR)
+            self.operator = Proc(OPERATOR, popen, self.now(), gen)
         for name in self.world.roster:
             self.spawn(name)
 

@@ -16,6 +16,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,9 +30,11 @@ from engine.team import robot_type, roster, start_positions
 from engine.terrain import SiteState, Terrain
 from engine.world import generate_world
 from field.drain import Drain
+from field.journal import Journal
+from field.journal import serve as serve_journal
 from field.link import Link
 from field.trust import Certificate, Rejected, Rejections
-from field.wire import event_key, presence_key, world_key
+from field.wire import event_key, journal_key, presence_key, world_key
 from field.world_rules import Refused, authorize
 
 log = logging.getLogger("regolith.field.world")
@@ -85,6 +88,7 @@ class WorldService:
         policy: str,
         speed: float,
         on_event: Callable[[dict[str, Any]], None] | None = None,
+        journal: Path | None = None,
     ) -> None:
         mission, session = link.mission, link.session
         self.link = link
@@ -115,6 +119,14 @@ class WorldService:
         self._session = session
         self._on_event = on_event
         self._events_pub = session.declare_publisher(event_key(mission, "world"))
+        # its events, numbered and kept: mission control reads back what it missed
+        self.journal = Journal("world", link.cred.gen, journal)
+        self._journal_query = Drain(
+            session.declare_queryable,
+            journal_key(mission, "world"),
+            lambda q: serve_journal(link, self.journal, journal_key(mission, "world"), q),
+            "world journal",
+        )
         self.observer.log.subscribe(self._publish_event)
         self._queryable = Drain(
             session.declare_queryable, world_key(mission), self._on_query, "world service"
@@ -127,6 +139,7 @@ class WorldService:
         data = {"kind": "event", "t": ev.t, "event": ev.kind, "data": ev.data, "by": "world"}
         if self._on_event is not None:
             self._on_event(data)
+        data = self.journal.record(data)
         self._outbox.append(self.link.seal(event_key(self.mission, "world"), data))
 
     def _flush(self) -> None:
@@ -353,8 +366,31 @@ class WorldService:
             "finished_at": f.finished_at,
         }
 
+    def view(self) -> dict[str, Any]:
+        """What mission control shows of the world, read at one instant (`field.moon`)."""
+        with self._lock:
+            return {
+                "status": self.status(),
+                "picture": self.terrain.picture(),
+                "minerals_in": {
+                    "sites": sum(s.remaining for s in self.terrain.sites),
+                    "aboard": sum(self.loads.values()),
+                    "ground": len(self.terrain.ground),
+                    "delivered": self.terrain.delivered,
+                },
+                "loads": dict(self.loads),
+                "policy": self.policy,
+                "epoch": self.clock.epoch,
+                "speed": self.speed,
+                "queries": self.queries,
+                "late": self.link.late,
+                "refusals": self.refusals.snapshot(),
+            }
+
     def close(self) -> None:
         self._queryable.undeclare()
+        self._journal_query.undeclare()
+        self.journal.close()
         for decl in (self._presence, self._events_pub):
             with contextlib.suppress(Exception):  # the session may be gone already
                 decl.undeclare()  # type: ignore[no-untyped-call]

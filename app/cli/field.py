@@ -62,6 +62,12 @@ def agent(
         str | None,
         typer.Option(metavar="FOR@EVERY", help="Fault injection: stop FOR s every ~EVERY s"),
     ] = None,
+    journal: Annotated[
+        Path | None,
+        typer.Option(
+            metavar="DIR", help="Keep what this robot reports here too (default: memory only)"
+        ),
+    ] = None,
 ) -> None:
     """Run one robot as this process, talking only over Zenoh."""
     from field.agent import Agent, AgentError
@@ -72,7 +78,9 @@ def agent(
     try:
         cred = Credential.from_json(_read_credential(credentials))
         stalls = None if stall is None else Stalls.parse(stall, zlib.crc32(name.encode()))
-        a = Agent(name, mission, connect, cred, speed=speed, listen=listen, stalls=stalls)
+        a = Agent(
+            name, mission, connect, cred, speed=speed, listen=listen, stalls=stalls, journal=journal
+        )
     except (AgentError, ValueError) as exc:
         fail("agent", str(exc).splitlines()[0])
     signal.signal(signal.SIGTERM, lambda *_: a.stopped.set())

@@ -29,10 +29,12 @@ from field.wire import (
     body_key,
     command_key,
     event_key,
+    journal_key,
     message_key,
     messages_selector,
     operator_key,
     presence_key,
+    supervisor_key,
     world_key,
 )
 
@@ -143,7 +145,9 @@ class Attacker:
             self.session.put(key, p)
             self.sent += 1
 
-    def ask(self, key: str, req: dict[str, Any]) -> None:
+    def ask(self, key: str, req: dict[str, Any], harmful: bool = False) -> None:
+        """A request three ways; an `ok` answer to one that changes the world (or, with
+        `harmful`, to any: the world process's controls, a robot's journal) is recorded."""
         raw = json.dumps({"v": 1, **req, "rid": "x"}).encode()
         payloads = [raw, self.own.seal(key, raw)]
         if self.link is not None:
@@ -154,7 +158,7 @@ class Attacker:
                 if reply.ok is None or self.link is None:
                     continue
                 got = self.link.open_json(f"reply:{key}", reply.ok.payload.to_bytes())
-                if got and got[1].get("ok") and req.get("op") in WRITES:
+                if got and got[1].get("ok") and (harmful or req.get("op") in WRITES):
                     self.accepted.append({"req": req, "reply": got[1]})
 
     def round(self) -> None:
@@ -182,6 +186,19 @@ class Attacker:
         self.ask(operator_key(m), task)
         for call in _world_calls(self.name):
             self.ask(world_key(m), call)
+        # the world process's controls and the robots' journals are mission control's alone
+        for op, args in (
+            ("kill", {"name": "hauler-1"}),
+            ("spawn", {"name": "hauler-9"}),
+            ("add", {"type": "hauler"}),
+            ("set_policy", {"policy": "fcfs"}),
+            ("journal", {"name": "hauler-1", "gen": 1, "after": -1}),
+            ("view", {}),
+            ("stop", {}),
+        ):
+            self.ask(supervisor_key(m), {"op": op, "args": args}, harmful=True)
+        for robot in ("hauler-1", "scout-1", "world"):
+            self.ask(journal_key(m, robot), {"op": "after", "args": {"after": -1}}, harmful=True)
         for robot in ("hauler-1", "excavator-1"):
             self.ask(
                 body_key(m, robot),

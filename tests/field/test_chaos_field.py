@@ -29,6 +29,7 @@ from engine.errors import CommandRejected
 from engine.policies import POLICIES
 from engine.scenario import ROBOT_TYPES, reference_scenario
 from field.control import FieldMission
+from field.world_handle import running
 from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import Progress
@@ -171,7 +172,7 @@ class OneHolder:
         lives: dict[str, float] = {}
         for name, proc in list(m.fleet.procs.items()):
             hb = beats.get(name)
-            if proc.popen.poll() is not None or hb is None or hb.t < proc.started_at:
+            if not proc.alive or hb is None or hb.t < proc.started_at:
                 continue  # dead, or a heartbeat of an earlier life
             lives[name] = proc.started_at
             for task in hb.tasks:
@@ -226,12 +227,12 @@ def _stuck(m: FieldMission, seed: int) -> str:
             and any(n == e.get("by") or n in str(e["data"]) for n in loads)
         ][-40:]
     trail_txt = "\n".join(map(str, trail))
-    exits = {p.name: p.popen.poll() for p in m.fleet.procs.values() if p.popen.poll() is not None}
+    exits = {p.name: p.exit for p in m.fleet.procs.values() if not p.alive}
     return (
         f"seed {seed}: not finished: {m.fleet.world.status()}\n"
         f"agent processes that exited (name: code): {exits}\n"
         f"dropped and refused: {m.rejections()}\n"
-        f"the world's refusals: {m.fleet.world.refusals.snapshot()}\n"
+        f"the world's refusals: {m.fleet.world.refusals()}\n"
         f"on board by the world's record: {loads}, their last pick-ups: {last}\n"
         f"last heartbeats: {beats}\n"
         f"their last events (t, by, event, data):\n{trail_txt}"
@@ -275,7 +276,7 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
                     world = m.fleet.world
                     chaos.note(
                         f"status { {k: status[k] for k in WORK} }, world queries "
-                        f"{world.queries} ({world.link.late} late), dropped {m.rejections()}"
+                        f"{world.queries} ({world.late} late), dropped {m.rejections()}"
                     )
                 watch.check(_work(status), lambda: _stuck(m, seed))
                 assert m.now < GIVE_UP_S, _stuck(m, seed)
@@ -303,5 +304,5 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
         finally:
             m.close()
         procs = [*m.fleet.history, *([m.fleet.operator] if m.fleet.operator else [])]
-        left = [p.name for p in procs if p.popen.poll() is None]
+        left = [p.name for p in procs if running(p.pid)]
         assert not left, f"seed {seed}: agent processes left: {left}"

@@ -24,7 +24,7 @@ from field.odometer import Odometer, along
 
 
 class StandInFleet:
-    """`Fleet`'s surface that `FieldMission` reads, and no processes."""
+    """`WorldHandle`'s surface that `FieldMission` reads, and no processes."""
 
     def __init__(self, scenario: Scenario, seed: int, policy: str, speed: float, **_: Any) -> None:
         self.intake = Intake(link=None)  # type: ignore[arg-type]  # (fed by hand)
@@ -34,10 +34,10 @@ class StandInFleet:
         self.procs: dict[str, Any] = {}
         self.t = 10.0
 
-    def up(self, operator: bool) -> None:
-        pass
+    def catch_up(self) -> bool:
+        return True
 
-    def close(self) -> None:
+    def close(self, stop: bool = True) -> None:
         for proc in self.procs.values():  # every agent ends with the mission
             proc.code = proc.code if proc.code is not None else -15
 
@@ -46,9 +46,9 @@ class StandInFleet:
 
 
 @pytest.fixture
-def mission(monkeypatch: pytest.MonkeyPatch) -> control.FieldMission:
-    monkeypatch.setattr(control, "Fleet", StandInFleet)
-    return control.FieldMission(Scenario(), 0, "nearest", 50.0)
+def mission() -> control.FieldMission:
+    fleet = StandInFleet(Scenario(), 0, "nearest", 50.0)
+    return control.FieldMission(Scenario(), 0, "nearest", 50.0, handle=fleet)  # type: ignore[arg-type]
 
 
 def record(status: str) -> dict[str, Any]:
@@ -118,7 +118,10 @@ class Proc:
 
     def __init__(self, code: int | None) -> None:
         self.code = code
-        self.popen = SimpleNamespace(poll=lambda: self.code)
+
+    @property
+    def alive(self) -> bool:
+        return self.code is None
 
 
 def test_robots_running_at_the_end_are_not_stored_as_failed(
@@ -133,7 +136,7 @@ def test_robots_running_at_the_end_are_not_stored_as_failed(
         "hauler-2": "failed",
     }
     mission.close()  # the mission ended: every process is gone now
-    assert all(p.popen.poll() is not None for p in fleet.procs.values())
+    assert not any(p.alive for p in fleet.procs.values())
     assert {r["name"]: r["state"] for r in mission.robot_list()} == {
         "hauler-1": "moving",
         "hauler-2": "failed",

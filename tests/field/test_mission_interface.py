@@ -13,14 +13,15 @@ from engine.scenario import Scenario
 from engine.team import roster, start_positions
 from field import control
 from field.refusals import FieldRefusal, check_field
+from field.world_handle import WorldView
 from tests.engine.factories import small_scenario
 from tests.field.test_control_views import StandInFleet
 
 
 @pytest.fixture
-def field_mission(monkeypatch: pytest.MonkeyPatch) -> control.FieldMission:
-    monkeypatch.setattr(control, "Fleet", StandInFleet)
-    return control.FieldMission(Scenario(), 0, "nearest", 50.0)
+def field_mission() -> control.FieldMission:
+    fleet = StandInFleet(Scenario(), 0, "nearest", 50.0)
+    return control.FieldMission(Scenario(), 0, "nearest", 50.0, handle=fleet)  # type: ignore[arg-type]
 
 
 def test_both_kinds_of_mission_implement_the_interface(
@@ -41,6 +42,18 @@ def test_the_world_service_starts_the_team_where_a_simulated_mission_does() -> N
         starts = start_positions(m.world, m.scenario.start_spread, len(team))
         assert list(team) == [r["name"] for r in m.robot_list()]
         assert starts == [m.robots[name].pos for name in team]
+    finally:
+        m.close()
+
+
+def test_mission_control_knows_the_map_and_starts_the_world_process_uses() -> None:
+    """Mission control, a process apart from the world's, derives the fixed part of the world
+    (map, roster, start ring) from the scenario and seed; it must be the world's own."""
+    m = Mission(small_scenario(), 5, "fcfs", planner="straight")
+    try:
+        view = WorldView(small_scenario(), 5, "fcfs")
+        assert view.world.to_dict() == m.world.to_dict()
+        assert [view.starts[n] for n in view.roster] == [m.robots[n].pos for n in view.roster]
     finally:
         m.close()
 
