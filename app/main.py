@@ -32,6 +32,7 @@ from app.middleware import (
 from app.ratelimit import RateLimiter
 from app.security import resolve_token
 from app.services.commands import RobotCommands
+from app.services.field_links import reattach
 from app.services.missions import MissionService
 from app.services.playback import Playback
 from app.services.store import Store
@@ -64,12 +65,14 @@ def _lifespan(settings: Settings, held: DataLock | None):  # type: ignore[no-unt
                 stack.callback(wal.close)  # after the store's last write
             store = Store(make_sessionmaker(engine))
             stack.callback(store.close)
-            stale = await store.interrupt_stale()
-            if stale:
-                log.warning("%d mission(s) were left running; marked interrupted", stale)
             runner = MissionRunner(settings, store)
             await runner.start()
             stack.push_async_callback(runner.aclose)
+            # field missions whose robots mined on while no server ran: taken back
+            attached = await reattach(store, runner)
+            stale = await store.interrupt_stale(keep=attached)
+            if stale:
+                log.warning("%d mission(s) were left running; marked interrupted", stale)
             sweeps = SweepManager(settings, store)
             if stale := await sweeps.start():
                 log.warning("%d sweep(s) were left running; marked interrupted", stale)

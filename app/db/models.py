@@ -12,6 +12,7 @@ from typing import Any, ClassVar
 
 from sqlalchemy import (
     JSON,
+    BigInteger,
     Boolean,
     DateTime,
     Float,
@@ -96,10 +97,15 @@ class Mission(Base):
 
 
 class Event(Base):
-    """One engine event, exactly as the engine emitted it."""
+    """One engine event, exactly as the engine emitted it. A field run's event also says which
+    process life reported it (`source`, `hauler-2#3`) and its number there (`rseq`): a
+    restarted server reads each life back from past what is stored (docs/field.md)."""
 
     __tablename__ = "events"
-    __table_args__ = (Index("ix_events_mission_kind_seq", "mission_id", "kind", "seq"),)
+    __table_args__ = (
+        Index("ix_events_mission_kind_seq", "mission_id", "kind", "seq"),
+        Index("ix_events_mission_source_rseq", "mission_id", "source", "rseq"),
+    )
 
     mission_id: Mapped[int] = mapped_column(
         ForeignKey("missions.id", ondelete="CASCADE"), primary_key=True
@@ -108,6 +114,8 @@ class Event(Base):
     t: Mapped[float] = mapped_column(Float)
     kind: Mapped[str] = mapped_column(String(40))
     data: Mapped[dict[str, Any]]
+    source: Mapped[str | None] = mapped_column(String(80))
+    rseq: Mapped[int | None] = mapped_column(BigInteger)
 
 
 class Auction(Base):
@@ -215,3 +223,21 @@ class Sweep(Base):
     started_at: Mapped[datetime | None]
     ended_at: Mapped[datetime | None]
     error: Mapped[str | None] = mapped_column(String(2000))
+
+
+class FieldLink(Base):
+    """How a field mission's processes are reached again after a server restart: its key
+    space, the world process's endpoint, the authority's private key (it signs mission
+    control's certificate: only the holder of this database can speak for the mission) and
+    the last generation of that certificate (the next server's is newer)."""
+
+    __tablename__ = "field_links"
+
+    mission_id: Mapped[int] = mapped_column(
+        ForeignKey("missions.id", ondelete="CASCADE"), primary_key=True
+    )
+    key_space: Mapped[str] = mapped_column(String(64))
+    endpoint: Mapped[str] = mapped_column(String(200))
+    authority: Mapped[str] = mapped_column(String(200))
+    control_gen: Mapped[int] = mapped_column(Integer)
+    world_pid: Mapped[int | None] = mapped_column(Integer)

@@ -100,7 +100,10 @@ class Recorder:
         self._events = len(log)
         batch = Batch(self.mission_id, float(m.now))
         dirty: set[str] = set()
+        # a field run's: the process life that reported each event, and its number there
+        origins: dict[int, tuple[str, int]] = getattr(m, "origins", None) or {}
         for ev in fresh:
+            source, rseq = origins.pop(ev.seq, (None, None))
             batch.events.append(
                 {
                     "mission_id": self.mission_id,
@@ -108,6 +111,8 @@ class Recorder:
                     "t": ev.t,
                     "kind": ev.kind,
                     "data": ev.data,
+                    "source": source,
+                    "rseq": rseq,
                 }
             )
             aid = ev.data.get("auction_id") if isinstance(ev.data, dict) else None

@@ -23,7 +23,7 @@ from app.live.gate import Gate
 from app.live.gc_pause import GcPause
 from app.live.hub import Hub
 from app.live.mission import BATCH_EVENTS, LiveMission
-from app.live.modes import dropped_of
+from app.live.modes import dropped_of, is_field
 from app.live.recorder import Batch, Recorder
 from app.live.records import describe, failed_record
 from app.live.stepper import Stepper
@@ -84,7 +84,8 @@ class MissionRunner:
         ]
 
     async def aclose(self) -> None:
-        """Stop stepping, write everything out and mark unfinished missions interrupted."""
+        """Stop stepping, write everything out and mark unfinished missions interrupted (not
+        field missions: their processes go on, `app/services/field_links.py`)."""
         await asyncio.to_thread(self.stepper.stop)
         for task in self._tasks:
             task.cancel()
@@ -92,15 +93,21 @@ class MissionRunner:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
         for lm in list(self.live.values()):
-            if not lm.finishing:
-                with self.gate:
-                    snap = self._safe_snap(lm, "interrupted")
-                    changes = {"status": "interrupted", "final_state": snap}
-                    self._write(lm, changes)
+            if lm.finishing:
+                continue
+            with self.gate:
+                if is_field(lm.mission):  # its robots mine on: the next server takes it back
+                    self._write(lm, {"sim_time": _safe_now(lm)})
+                    continue
+                snap = self._safe_snap(lm, "interrupted")
+                self._write(lm, {"status": "interrupted", "final_state": snap})
         await self.drain()
         with self.gate:
             for lm in self.live.values():
-                lm.mission.close()
+                if is_field(lm.mission) and not lm.finishing:
+                    lm.mission.detach()
+                else:
+                    lm.mission.close()
         self.live.clear()
         self.gc_pause.stop()
 

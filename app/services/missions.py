@@ -21,6 +21,7 @@ from app.live.runner import MissionRunner
 from app.services import queries
 from app.services.admission import Admission, ProcessBudget
 from app.services.errors import Conflict, LimitExceeded, NotFound
+from app.services.field_links import link_fields
 from app.services.field_rules import (
     Speed,
     check_field,
@@ -161,7 +162,8 @@ class MissionService:
                     "speed": rate,
                     "started_at": None if paused else utcnow(),
                     "world_map": world,
-                }
+                },
+                link_fields(mission) if is_field(mission) else None,
             )
         except BaseException:
             mission.close()
@@ -186,7 +188,8 @@ class MissionService:
         here; the runner steps it like an engine mission (field/control.py)."""
         from field.control import FieldMission
 
-        mission = FieldMission(scenario, seed, policy, float(speed or 20.0))
+        folder = (self.settings.data_dir / "field").resolve()  # journals, the world's log
+        mission = FieldMission(scenario, seed, policy, float(speed or 20.0), folder=folder)
         return mission, mission.world_map()
 
     # -- lifecycle ---------------------------------------------------------------------

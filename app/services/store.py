@@ -27,7 +27,18 @@ from sqlalchemy import Insert, Table, case, func, insert, select, update
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
-from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, Sweep, utcnow
+from app.db.models import (
+    Action,
+    Auction,
+    Award,
+    Base,
+    Bid,
+    Event,
+    FieldLink,
+    Mission,
+    Sweep,
+    utcnow,
+)
 from app.live.recorder import Batch, Stored
 
 T = TypeVar("T")
@@ -121,8 +132,17 @@ class Store:
 
     # -- writes ------------------------------------------------------------------------
 
-    async def create_mission(self, fields: dict[str, Any]) -> Mission:
-        return await self._write(_create_mission, fields)
+    async def create_mission(
+        self, fields: dict[str, Any], field_link: dict[str, Any] | None = None
+    ) -> Mission:
+        """A new mission's row (and a field mission's link to its processes, in the same
+        transaction: a field mission is never stored unreachable)."""
+        return await self._write(_create_mission, fields, field_link)
+
+    async def write(self, fn: Callable[..., T], *args: Any) -> T:
+        """`fn(session, *args)` on the writer thread, urgent: the writes another module keeps
+        with its reads (`app/services/field_links.py`)."""
+        return await self._write(fn, *args)
 
     async def record_action(
         self, mission_id: int, action: dict[str, Any], replay: bool, changes: dict[str, Any]
@@ -144,9 +164,10 @@ class Store:
         for part in parts:
             await part
 
-    async def interrupt_stale(self) -> int:
-        """Missions left running by a crash cannot be live now: mark them interrupted."""
-        return await self._write(_interrupt_stale)
+    async def interrupt_stale(self, keep: frozenset[int] = frozenset()) -> int:
+        """Missions left running by a crash cannot be live now: mark them interrupted (all
+        but `keep`, the field missions attached to again)."""
+        return await self._write(_interrupt_stale, keep)
 
     async def create_sweep(self, fields: dict[str, Any]) -> Sweep:
         return await self._write(_create_sweep, fields)
@@ -166,10 +187,14 @@ def _call(fn: Callable[..., T], args: tuple[Any, ...], session: Session) -> T:
     return fn(session, *args)
 
 
-def _create_mission(session: Session, fields: dict[str, Any]) -> Mission:
+def _create_mission(
+    session: Session, fields: dict[str, Any], field_link: dict[str, Any] | None
+) -> Mission:
     row = Mission(created_at=utcnow(), **fields)
     session.add(row)
     session.flush()
+    if field_link is not None:
+        session.add(FieldLink(mission_id=row.id, **field_link))
     return row
 
 
@@ -222,9 +247,11 @@ def _update_mission(session: Session, mission_id: int, changes: dict[str, Any]) 
     session.execute(update(Mission).where(Mission.id == mission_id).values(**changes))
 
 
-def _interrupt_stale(session: Session) -> int:
+def _interrupt_stale(session: Session, keep: frozenset[int]) -> int:
     result = session.execute(
-        update(Mission).where(Mission.status.in_(LIVE_STATUSES)).values(status="interrupted")
+        update(Mission)
+        .where(Mission.status.in_(LIVE_STATUSES), Mission.id.not_in(keep))
+        .values(status="interrupted")
     )
     return int(getattr(result, "rowcount", 0) or 0)
 
