@@ -36,7 +36,7 @@ from field.refusals import check_field
 class FieldMission(MissionViews):
     """A field mission as the live service sees it."""
 
-    mode: MissionMode = "field"  # its agents keep the wall clock × its speed
+    mode: MissionMode = "field"  # its agents keep the world service's clock (field/clock.py)
 
     def __init__(
         self,
@@ -45,6 +45,7 @@ class FieldMission(MissionViews):
         policy: str | int,
         speed: float,
         stall: str | None = None,
+        paused: bool = False,
     ) -> None:
         self.scenario, self.seed = scenario, seed
         self.initial_policy = resolve_policy(policy)
@@ -62,6 +63,8 @@ class FieldMission(MissionViews):
         self._closed = False
         self._down: set[str] | None = None  # at the end: robots down before it stay down
         self._lock = threading.Lock()
+        if paused:  # before any agent starts: each is handed the paused clock at its spawn
+            self.fleet.set_clock(paused=True)
         self.fleet.up(operator=True)
 
     # --- what the runner reads --------------------------------------------------------------
@@ -236,6 +239,33 @@ class FieldMission(MissionViews):
         self.fleet.set_policy(name)
         self.log.emit("policy_changed", old=old, new=name)
         return name
+
+    # --- the mission clock: every agent at once (field/clock.py) ------------------------------
+    @property
+    def paused(self) -> bool:
+        return self.fleet.world.clock.paused
+
+    @property
+    def speed(self) -> float:
+        return self.fleet.world.clock.speed
+
+    def pause(self) -> float:
+        """No robot acts until `resume`; the mission time it stands at."""
+        self._check_running()
+        return self.fleet.set_clock(paused=True)
+
+    def resume(self) -> float:
+        self._check_running()
+        return self.fleet.set_clock(paused=False)
+
+    def set_speed(self, speed: float | str) -> float:
+        """Re-paced from now (paused or not); a speed field mode cannot run is refused."""
+        self._check_running()
+        try:
+            check_field(speed=speed)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
+        return self.fleet.set_clock(speed=float(speed))
 
     def disable_robot(self, name: str, mode: str = "graceful") -> None:
         """Terrain mode has one way to stop a robot: its process is SIGKILLed (abrupt)."""
