@@ -6,7 +6,8 @@ Events and auction records arrive from the agents and the world service; robots'
 distances from their heartbeats (field/odometer.py); the counters from the world service.
 The event log, the views' shapes and the checks of an operator's task are the engine's own.
 Operator commands become processes (disable: SIGKILL; enable: the same name again; add: a new
-process) or commands on the key space (policy switch).
+process) or commands on the key space (policy switch; pause, resume and speed: the world
+service's clock, field/clock.py).
 """
 
 from __future__ import annotations
