@@ -6,7 +6,8 @@ position, the starting roster, the mission's clock), builds the engine's own rob
 `MissionContext` whose bus is Zenoh (`field.transport.ZenohBus`), whose field is the world
 service (`field.remote.RemoteField`) and whose other robots are stand-ins answered by their
 own agents (`field.bodies`: their looks and the hand-over exchange with them), and runs it on
-simulation time = wall time × speed.
+mission time: the world service's clock (`field.clock`), which mission control pauses and
+re-paces for every agent at once.
 """
 
 from __future__ import annotations
@@ -28,7 +29,9 @@ from engine.mission import make_planner
 from engine.policies import POLICIES, PolicyContext, make_policy
 from engine.scenario import Scenario
 from engine.world import generate_world
-from field.bodies import PeerBody, caller_refused, look, place_robot, serve_body
+from field.asking import BUSY, QUERY_TIMEOUT_S, AgentError, Asking
+from field.bodies import PeerBody, caller_refused, place_robot, serve_body
+from field.clock import PAUSED_WAIT_S, MissionClock, poll_every
 from field.drain import Drain
 from field.journal import Journal
 from field.journal import serve as serve_journal
@@ -47,18 +50,13 @@ from field.wire import (
     operator_key,
     world_key,
 )
-from field.world_service import MissionClock
 
 log = logging.getLogger("regolith.field.agent")
-QUERY_TIMEOUT_S = 2.0
-"""How long (wall) a query to the world service or a peer may take; past it, no answer."""
-BUSY = "busy"
 AWAKE_S = 0.1
 """The clock loop wakes at least every 50 ms (wall): a longer gap is time the process was not
 running (CPU starvation), and does not count against its peers' liveness (`Liveness.excuse`).
 Without it, a robot starved for 0.3 s at K = 100 (its failure timeout, 30 s) declared every
 peer failed at once and auctioned their tasks again, over and over on a loaded machine."""
-BUSY_RETRIES = 4
 DELIVER_PER_TURN = 100
 ABSENCE_S = 30.0
 """How long (wall) the world service may say nothing signed before its agents leave (one that
@@ -72,11 +70,7 @@ REPORT_REJECTIONS_S = 1.0
 """How often (wall) an agent tells mission control what it dropped, when that changed."""
 
 
-class AgentError(RuntimeError):
-    """The agent cannot join its mission (no world service, refused name, bad options)."""
-
-
-class Agent:
+class Agent(Asking):
     def __init__(
         self,
         name: str,
@@ -114,14 +108,16 @@ class Agent:
         self.journal = Journal(name, credential.gen, journal)
         self._reported_rejections = 0
         self._next_rejection_report = 0.0
+        self.clock = MissionClock()  # none yet: every answer of the world carries it
         spawn = self._spawn()
+        if self.clock.state.version < 0:
+            raise AgentError(f"mission {self.mission!r}: the world service sent no clock")
         if speed is not None and abs(speed - spawn["speed"]) > 1e-9:
             raise AgentError(
                 f"speed: the mission runs at {spawn['speed']:g}×, not {speed:g}× "
                 "(every process of a mission shares one clock)"
             )
         scenario = Scenario.model_validate(spawn["scenario"])
-        self.clock = MissionClock(float(spawn["epoch"]), float(spawn["speed"]))
         seed = int(spawn["seed"])
         world_rng, _bus, plan_rng, _work, policy_rng = (
             np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(5)
@@ -171,79 +167,6 @@ class Agent:
         )
         robot.start(joined_late=bool(spawn["joined_late"]))
 
-    # --- queries ----------------------------------------------------------------------------
-    def _ask(self, key: str, req: dict[str, Any], expect: str) -> dict[str, Any] | None:
-        # the clock loop lets go of the robot while it waits: a peer asking this robot
-        # something meanwhile is answered, not refused as busy (two robots asking each
-        # other at once, each holding its own lock, both heard "busy" and took it as "not
-        # there": a transport ended void, auctioned again, again)
-        parked = self._loop_holds and threading.get_ident() == self._loop_thread
-        if parked:
-            self._loop_holds = False
-            self.lock.release()
-        try:
-            rep = self.link.ask(key, req, expect, QUERY_TIMEOUT_S)
-            if rep is not None and expect == WORLD:
-                self._world_heard = time.monotonic()
-            return rep
-        except Exception:  # the session closed under a robot still running at shutdown
-            if not self.stopped.is_set():
-                raise
-        finally:
-            if parked:
-                self.lock.acquire()
-                self._loop_holds = True
-        return None
-
-    def new_id(self, what: str) -> str:
-        return f"{self.name}@{self.session.zid()}/{what}-{next(self._ids)}"
-
-    def stopping(self) -> bool:
-        return self.stopped.is_set()
-
-    def _spawn(self) -> dict[str, Any]:
-        deadline = time.monotonic() + 30.0
-        while time.monotonic() < deadline:
-            rep = self._ask(
-                world_key(self.mission), {"op": "spawn", "args": {"name": self.name}}, WORLD
-            )
-            if rep is not None:
-                if not rep.get("ok"):
-                    raise AgentError(str(rep.get("error")))
-                value: dict[str, Any] = rep["value"]
-                return value
-            time.sleep(0.2)
-        raise AgentError(f"mission {self.mission!r}: no world service answered in 30 s")
-
-    def ask_world(self, op: str, **args: Any) -> Any:
-        """Ground truth: asked again until the world service answers (a missing answer is
-        not a fact: a pile read as empty for want of a reply would be abandoned for good).
-        None only for a refused request, or once the agent is stopping."""
-        while True:
-            rep = self._ask(world_key(self.mission), {"op": op, "args": args}, WORLD)
-            if rep is not None:
-                if not rep.get("ok"):
-                    log.warning("world %s refused: %s", op, rep.get("error"))
-                    return None
-                return rep["value"]
-            log.warning("world %s: no answer yet, asking again", op)
-            if self.stopped.wait(0.05):  # (no route at all answers at once: not a busy loop)
-                return None
-
-    def ask_body(self, name: str, op: str, **args: Any) -> Any:
-        """A peer's answer; None if it did not answer (gone, or too slow) or refused. A peer
-        that says it is busy is there: it is asked again, a few times."""
-        req = {"op": op, "args": args, "caller": look(self.robot)}
-        for _ in range(BUSY_RETRIES):
-            rep = self._ask(body_key(self.mission, name), req, name)
-            if rep is None or self.stopped.is_set():
-                return None
-            if rep.get("ok"):
-                return rep["value"]
-            if rep.get("error") != BUSY:
-                return None
-        return None
-
     def _on_body(self, query: Any) -> None:
         """Another robot looks at this one, or says something of a hand-over (Zenoh's thread).
         Only a member of the mission is answered, and a message only from its signer."""
@@ -281,6 +204,9 @@ class Agent:
             return
         if cmd.get("cmd") == "stop":
             self.stopped.set()
+        elif cmd.get("cmd") == "clock":  # a newer state only; a malformed one changes nothing
+            if self.clock.adopt(cmd.get("clock")):
+                self.bus.inbox.ready.set()  # the clock loop: time stops or moves on now
         elif (
             cmd.get("cmd") == "set_policy"
             and cmd.get("policy") in POLICIES
@@ -349,9 +275,10 @@ class Agent:
         control's absence does not count: the robots mine on without it and it reads back
         what they did (`field.journal`). The world's word is a signed answer or command,
         never a liveliness token: anyone on the bus can declare one."""
-        while not self.stopped.wait(PRESENCE_POLL_S):
-            if time.monotonic() - self._world_heard < PRESENCE_POLL_S:
-                continue  # heard from it just now, in the course of the mission
+        while not self.stopped.wait(every := poll_every(self.clock, PRESENCE_POLL_S)):
+            following = every < PRESENCE_POLL_S
+            if not following and time.monotonic() - self._world_heard < PRESENCE_POLL_S:
+                continue  # heard from it just now (while paused or after a change: ask)
             with contextlib.suppress(Exception):  # a closed session: nobody answers
                 self._ask(world_key(self.mission), {"op": "status", "args": {}}, WORLD)
             if time.monotonic() - self._world_heard >= ABSENCE_S:
@@ -371,28 +298,39 @@ class Agent:
                     if self.stalls is not None:
                         self.stalls.take()  # injected: stop, holding the robot
                     t = clock.now()
-                    away = t - env.now - AWAKE_S * clock.speed
-                    if away > 0:  # this process had no CPU: peers were not silent, I was deaf
-                        self.ctx.liveness.excuse(self.name, env.now, env.now + away)
-                    while env.peek() <= t:
-                        env.step()
-                    if t > env.now:
-                        env.run(until=t)  # nothing due: the clock moves on to the wall's time
-                    # a backlog is worked through a batch per turn, the clock kept between:
-                    # a robot behind on its messages still heartbeats and keeps its timers
-                    for msg in bus.inbox.due(limit=DELIVER_PER_TURN):
-                        bus.deliver(msg, float(env.now))
-                    self.step += 1
+                    # paused: nothing happens, not even what a message would start (it waits
+                    # in the inbox); mission time stands, so no gap is excused or counted
+                    if not clock.paused:
+                        self._turn(t)
                     nxt = env.peek()
                     self._report_rejections()
                 finally:
                     self._loop_holds = False
             wait = 0.05 if nxt == float("inf") else (nxt - clock.now()) / clock.speed
             pending = bus.inbox.next_due_in()
-            if pending is not None:
+            if clock.paused:
+                wait = PAUSED_WAIT_S  # a command to move on wakes it sooner
+            elif pending is not None:
                 wait = min(wait, pending)
             # at least a millisecond: a timer due "now" waits for the wall to catch up
             bus.inbox.ready.wait(min(max(wait, 0.001), 0.05))
+
+    def _turn(self, t: float) -> None:
+        """The robot's simpy environment brought to mission time `t`, then a batch of what
+        arrived delivered (the clock loop, holding the robot)."""
+        env, bus = self.env, self.bus
+        away = t - env.now - AWAKE_S * self.clock.speed
+        if away > 0:  # this process had no CPU: peers were not silent, I was deaf
+            self.ctx.liveness.excuse(self.name, env.now, env.now + away)
+        while env.peek() <= t:
+            env.step()
+        if t > env.now:
+            env.run(until=t)  # nothing due: the clock moves on to the wall's time
+        # a backlog is worked through a batch per turn, the clock kept between:
+        # a robot behind on its messages still heartbeats and keeps its timers
+        for msg in bus.inbox.due(limit=DELIVER_PER_TURN):
+            bus.deliver(msg, float(env.now))
+        self.step += 1
 
     def _report_rejections(self) -> None:
         """What this agent dropped, for the mission's record (when it changed, at most

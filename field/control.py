@@ -6,7 +6,8 @@ Events and auction records arrive from the agents and the world service; robots'
 distances from their heartbeats (field/odometer.py); the counters from the world service.
 The event log, the views' shapes and the checks of an operator's task are the engine's own.
 Operator commands become processes (disable: SIGKILL; enable: the same name again; add: a new
-process) or commands on the key space (policy switch).
+process) or commands on the key space (policy switch; pause, resume and speed: the world
+service's clock, field/clock.py).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from field.world_handle import WorldHandle
 class FieldMission(MissionViews):
     """A field mission as the live service sees it."""
 
-    mode: MissionMode = "field"  # its agents keep the wall clock × its speed
+    mode: MissionMode = "field"  # its agents keep the world service's clock (field/clock.py)
 
     def __init__(
         self,
@@ -50,15 +51,19 @@ class FieldMission(MissionViews):
         folder: Path | None = None,
         handle: WorldHandle | None = None,
         first_seq: int = 0,
+        paused: bool = False,
     ) -> None:
-        """A new field mission (its world's process started, journals under `folder`), or,
+        """A new field mission (its world's process started, journals under `folder`, its
+        clock standing from the start if `paused`), or,
         with `handle`, one a previous server started, attached to again: its events numbered
         on from `first_seq` (those stored)."""
         self.scenario, self.seed = scenario, seed
         self.initial_policy = resolve_policy(policy)
         if handle is None:
             folder = folder or Path(tempfile.gettempdir()) / "regolith-field"
-            handle = WorldHandle.start(scenario, seed, self.initial_policy, speed, folder, stall)
+            handle = WorldHandle.start(
+                scenario, seed, self.initial_policy, speed, folder, stall, paused
+            )
         self.fleet = handle
         self.world = self.fleet.world.world
         self.log = EventLog(lambda: self.now)
@@ -271,6 +276,33 @@ class FieldMission(MissionViews):
         self.fleet.set_policy(name)
         self.log.emit("policy_changed", old=old, new=name)
         return name
+
+    # --- the mission clock: every agent at once (field/clock.py) ------------------------------
+    @property
+    def paused(self) -> bool:
+        return self.fleet.world.clock.paused
+
+    @property
+    def speed(self) -> float:
+        return self.fleet.world.clock.speed
+
+    def pause(self) -> float:
+        """No robot acts until `resume`; the mission time it stands at."""
+        self._check_running()
+        return self.fleet.set_clock(paused=True)
+
+    def resume(self) -> float:
+        self._check_running()
+        return self.fleet.set_clock(paused=False)
+
+    def set_speed(self, speed: float | str) -> float:
+        """Re-paced from now (paused or not); a speed field mode cannot run is refused."""
+        self._check_running()
+        try:
+            check_field(speed=speed)
+        except ValueError as exc:
+            raise CommandRejected(str(exc)) from None
+        return self.fleet.set_clock(speed=float(speed))
 
     def disable_robot(self, name: str, mode: str = "graceful") -> None:
         """Terrain mode has one way to stop a robot: its process is SIGKILLed (abrupt)."""

@@ -269,6 +269,16 @@ class Fleet:
         self.world.policy = policy
         self.link.put(command_key(self.mission), {"cmd": "set_policy", "policy": policy})
 
+    def set_clock(self, paused: bool | None = None, speed: float | None = None) -> float:
+        """Pause, resume or re-pace every agent at once: the world service's clock changes
+        (its ground truth), then the new state goes out as a command; an agent that misses
+        it adopts it from its next answer of the world (every one carries the clock). The
+        mission time it changed at."""
+        state = self.world.set_clock(paused=paused, speed=speed)
+        self.speed = state["speed"]
+        self.link.put(command_key(self.mission), {"cmd": "clock", "clock": state})
+        return float(state["t"])
+
     def close(self) -> None:
         """Stop every agent (asked first, then SIGKILL to any group still there)."""
         self._closing.set()

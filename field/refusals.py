@@ -23,12 +23,13 @@ def check_field(
     speed: float | str | None = None,
     paused: bool = False,
 ) -> None:
-    """`FieldRefusal` for what field mode cannot run: a speed other than a fixed one >= 1 (its
-    agents keep the wall clock × the speed) or a pause; a centralized policy (it needs
-    global state, which no agent has); the realism options (the agents build their robots
-    without them). `policy` is a resolved name."""
-    if speed is not None and (speed == "max" or float(speed) < 1 or paused):
-        raise FieldRefusal(("speed",), "a field mission runs at a fixed speed >= 1, unpaused")
+    """`FieldRefusal` for what field mode cannot run: a speed other than a finite one >= 1
+    (its agents run on the wall clock × the speed: "max" has no wall-clock meaning, and a
+    pause is asked for as one, not as speed 0); a centralized policy (it needs global
+    state, which no agent has); the realism options (the agents build their robots without
+    them). `policy` is a resolved name. A pause (`paused`) is allowed, at creation too."""
+    if speed is not None and (speed == "max" or not float(speed) >= 1):
+        raise FieldRefusal(("speed",), "a field mission runs at a speed >= 1 (not 'max' or 0)")
     if policy is not None and not POLICIES[policy].decentralized:
         raise FieldRefusal(
             ("policy",), f"{policy} is centralized; field mode runs decentralized ones"

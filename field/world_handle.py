@@ -30,6 +30,7 @@ from engine.scenario import Scenario
 from engine.team import robot_type, roster, start_positions
 from engine.terrain import SiteState
 from engine.world import generate_world
+from field.clock import MissionClock
 from field.drain import Drain
 from field.fleet import INJECT_WAIT_S, free_port
 from field.intake import Intake
@@ -169,7 +170,7 @@ class WorldView:
         self.starts = dict(zip(self.roster, starts, strict=True))
         self.terrain = TerrainView()
         self.policy = policy
-        self.epoch, self.speed = time.time(), 1.0
+        self.clock = MissionClock()  # the world's, as its last answer carried it
         self.loads: dict[str, int] = {}
         self.refused = 0
         self.queries = 0
@@ -180,7 +181,7 @@ class WorldView:
     def show(self, view: dict[str, Any]) -> None:
         self.terrain.show(view)
         self.policy = str(view["policy"])
-        self.epoch, self.speed = float(view["epoch"]), float(view["speed"])
+        self.clock.adopt(view["clock"])
         self.loads = dict(view["loads"])
         self.refused = int(view["refusals"]["total"])
         self.queries = int(view["queries"])
@@ -189,7 +190,7 @@ class WorldView:
         self.last = view
 
     def now(self) -> float:
-        return max(0.0, (time.time() - self.epoch) * self.speed)
+        return self.clock.now()
 
     def status(self) -> dict[str, Any]:
         return dict(self.last.get("status") or {})
@@ -266,6 +267,7 @@ class WorldHandle:
         speed: float,
         folder: Path,
         stall: str | None = None,
+        paused: bool = False,
     ) -> WorldHandle:
         """A new field mission: its world's process started (in a session of its own, so it
         outlives this one), then attached to."""
@@ -275,7 +277,16 @@ class WorldHandle:
         journal = folder / mission
         journal.mkdir(parents=True, exist_ok=True, mode=0o700)
         settings = Settings(
-            mission, authority.secret, scenario, seed, policy, speed, port, journal, stall=stall
+            mission,
+            authority.secret,
+            scenario,
+            seed,
+            policy,
+            speed,
+            port,
+            journal,
+            stall=stall,
+            paused=paused,
         )
         with (journal / "world.log").open("ab") as out:
             popen = subprocess.Popen(
@@ -401,6 +412,19 @@ class WorldHandle:
         name = str(self._must("add", type=rtype))
         self.refresh()
         return name
+
+    def set_clock(self, paused: bool | None = None, speed: float | None = None) -> float:
+        """Pause, resume or re-pace every agent at once (the world's process publishes the
+        change); the mission time it changed at."""
+        args: dict[str, Any] = {}
+        if paused is not None:
+            args["paused"] = paused
+        if speed is not None:
+            args["speed"] = speed
+        state = self._must("clock", **args)
+        self.world.clock.adopt(state)
+        self.refresh()  # what the world shows from then on (a delivery count at a pause)
+        return float(state["t"])
 
     def set_policy(self, policy: str) -> None:
         self._must("set_policy", policy=policy)

@@ -57,6 +57,7 @@ class Settings:
     journal: Path
     host: str = "127.0.0.1"
     stall: str | None = None
+    paused: bool = False  # the clock stands from the start (a mission created paused)
 
     def to_json(self) -> str:
         return json.dumps(
@@ -71,6 +72,7 @@ class Settings:
                 "journal": str(self.journal),
                 "host": self.host,
                 "stall": self.stall,
+                "paused": self.paused,
             }
         )
 
@@ -88,6 +90,7 @@ class Settings:
             journal=Path(d["journal"]),
             host=str(d.get("host") or "127.0.0.1"),
             stall=d.get("stall"),
+            paused=bool(d.get("paused", False)),
         )
 
 
@@ -170,6 +173,17 @@ class WorldProcess:
         if op == "set_policy":
             fleet.set_policy(str(a["policy"]))
             return None
+        if op == "clock":  # pause, resume, re-pace: every agent at once (field/clock.py)
+            speed = a.get("speed")
+            paused = a.get("paused")
+            if paused is not None and not isinstance(paused, bool):
+                raise ValueError("paused: true or false")
+            if speed is not None and (
+                isinstance(speed, bool) or not isinstance(speed, int | float)
+            ):
+                raise ValueError("speed: a number")
+            fleet.set_clock(paused=paused, speed=None if speed is None else float(speed))
+            return fleet.world.clock.state.to_dict()
         if op == "journal":  # a life that ended: what its files on this disk hold
             name, gen, after = str(a["name"]), int(a["gen"]), int(a["after"])
             if not any(p.name == name and p.gen == gen for p in self._lives()):
@@ -195,6 +209,8 @@ class WorldProcess:
         }
 
     def run(self) -> None:
+        if self.settings.paused:  # before any agent starts: each is handed it at its spawn
+            self.fleet.set_clock(paused=True)
         self.fleet.up(operator=True)
         while not self.stopped.wait(0.5):
             quiet = time.monotonic() - self.heard

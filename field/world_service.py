@@ -13,7 +13,6 @@ import contextlib
 import logging
 import math
 import threading
-import time
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
@@ -29,6 +28,7 @@ from engine.scenario import ROBOT_TYPES, Scenario
 from engine.team import robot_type, roster, start_positions
 from engine.terrain import SiteState, Terrain
 from engine.world import generate_world
+from field.clock import MissionClock
 from field.drain import Drain
 from field.journal import Journal
 from field.journal import serve as serve_journal
@@ -38,17 +38,23 @@ from field.wire import event_key, journal_key, presence_key, world_key
 from field.world_rules import Refused, authorize
 
 log = logging.getLogger("regolith.field.world")
+PAUSED = "paused"
+"""The world's answer to an operation that would change it while the mission is paused:
+not a refusal, "ask again once time moves" (`Agent.ask_world`)."""
+CHANGES = frozenset({"deliver", "pick", "drop", "handover", "site_set", "found", "scan"})
+"""The operations that move a mineral or change the world: none while paused."""
 
 
-class MissionClock:
-    """Simulation time = (wall time - epoch) × speed: every process of a mission agrees on it
-    (on one machine exactly; across machines as well as their clocks agree)."""
+class Paused(Exception):
+    """The mission is paused: the world does not change (`PAUSED`)."""
 
-    def __init__(self, epoch: float, speed: float) -> None:
-        self.epoch, self.speed = epoch, speed
 
-    def now(self) -> float:
-        return max(0.0, (time.time() - self.epoch) * self.speed)
+__all__ = [
+    "PAUSED",
+    "MissionClock",
+    "Paused",
+    "WorldService",
+]  # (MissionClock lives in field.clock)
 
 
 class _TerrainEnv:
@@ -96,7 +102,7 @@ class WorldService:
         self.policy = resolve_policy(policy)
         world_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(4)[0])
         self.world = generate_world(scenario, world_rng)
-        self.clock = MissionClock(time.time(), speed)
+        self.clock = MissionClock.start(speed)
         self.observer = Observer(self.clock.now)
         self.terrain = Terrain(self.world, _TerrainEnv(self.clock), self.observer)  # type: ignore[arg-type]
         self.roster: dict[str, str] = roster(scenario.team)
@@ -159,13 +165,17 @@ class WorldService:
             if not isinstance(req.get("op"), str) or not isinstance(args or {}, dict):
                 reply: dict[str, Any] = {"ok": False, "error": "malformed request"}
             else:
-                with self._lock:
+                with self._lock:  # (held by `set_clock` too: nothing changes once paused)
                     self.queries += 1
                     reply = {"ok": True, "value": self.handle(req["op"], args or {}, opened.cert)}
+        except Paused:
+            reply = {"ok": False, "error": PAUSED}  # not a refusal: not counted as one
         except (KeyError, TypeError, ValueError, IndexError, OverflowError) as exc:
             why = "refused" if isinstance(exc, Refused) else "bad request"
             self.refusals.count(Rejected(why, opened.sender, str(exc)[:200]))
             reply = {"ok": False, "error": str(exc)[:200]}
+        # every answer carries the clock: an asker that missed a change catches up at once
+        reply["clock"] = self.clock.state.to_dict()
         self.link.reply(query, world_key(self.mission), req, reply)
         self._flush()
 
@@ -176,6 +186,8 @@ class WorldService:
         is asked: an agent asks again when a reply is late, and a delivery asked twice would
         count a mineral twice. (A repeat is answered as the first time, before the checks: the
         first one changed what they read.)"""
+        if op in CHANGES and self.clock.paused:  # (a repeat under `once` too: simplest)
+            raise Paused(op)
         once = a.get("once")
         if once is not None and op != "settle" and str(once) in self.done:
             return self.done[str(once)]
@@ -346,8 +358,8 @@ class WorldService:
             "scenario": self.scenario.model_dump(mode="json"),
             "seed": self.seed,
             "policy": self.policy,
-            "epoch": self.clock.epoch,
-            "speed": self.speed,
+            "clock": self.clock.state.to_dict(),
+            "speed": self.clock.speed,
         }
 
     def status(self) -> dict[str, Any]:
@@ -364,10 +376,11 @@ class WorldService:
             "scanned": f.scanned_count,
             "finished": f.finished.triggered,
             "finished_at": f.finished_at,
+            "clock": self.clock.state.to_dict(),
         }
 
     def view(self) -> dict[str, Any]:
-        """What mission control shows of the world, read at one instant (`field.moon`)."""
+        """What mission control shows of the world, read at one instant (`field.world_process`)."""
         with self._lock:
             return {
                 "status": self.status(),
@@ -380,12 +393,19 @@ class WorldService:
                 },
                 "loads": dict(self.loads),
                 "policy": self.policy,
-                "epoch": self.clock.epoch,
-                "speed": self.speed,
+                "clock": self.clock.state.to_dict(),
                 "queries": self.queries,
                 "late": self.link.late,
                 "refusals": self.refusals.snapshot(),
             }
+
+    def set_clock(self, paused: bool | None = None, speed: float | None = None) -> dict[str, Any]:
+        """Pause, resume or re-pace the mission (mission control): re-anchored at the world's
+        own now; the new state, for mission control to publish to every agent."""
+        with self._lock:
+            state = self.clock.set(paused=paused, speed=speed)
+            self.speed = state.speed
+        return state.to_dict()
 
     def close(self) -> None:
         self._queryable.undeclare()

@@ -70,7 +70,8 @@ def agent(
     ] = None,
 ) -> None:
     """Run one robot as this process, talking only over Zenoh."""
-    from field.agent import Agent, AgentError
+    from field.agent import Agent
+    from field.asking import AgentError
     from field.transport import Stalls
     from field.trust import Credential
 

@@ -178,13 +178,18 @@ class MissionRunner:
     # -- what the services ask of a live mission (callers hold the gate) ------------------
 
     def pause(self, lm: LiveMission) -> float:
-        """Stop stepping `lm` and tell its viewers; the simulation time it paused at."""
+        """Stop stepping `lm` and tell its viewers; the simulation time it paused at. A field
+        mission's agents run on their own: its clock is paused (every agent's with it)."""
+        if is_field(lm.mission):
+            lm.mission.pause()
         lm.paused = True
         lm.hub.publish(lm.status_message())
         return float(lm.mission.now)
 
     def resume(self, lm: LiveMission) -> float:
         """Step `lm` again, paced from now, and tell its viewers; the simulation time."""
+        if is_field(lm.mission):
+            lm.mission.resume()
         lm.paused = False
         lm.reanchor()
         lm.hub.publish(lm.status_message())
@@ -192,7 +197,10 @@ class MissionRunner:
         return float(lm.mission.now)
 
     def set_speed(self, lm: LiveMission, speed: float | None) -> float:
-        """Step `lm` at `speed` (None: as fast as possible), paced from now; the time."""
+        """Step `lm` at `speed` (None: as fast as possible), paced from now; the time. (A
+        field mission: its clock is re-paced, every agent's with it; never None, checked.)"""
+        if is_field(lm.mission) and speed is not None:
+            lm.mission.set_speed(speed)
         lm.speed = speed
         lm.reanchor()
         lm.hub.publish(lm.status_message())

@@ -32,6 +32,14 @@ def check_field(scenario: Scenario, policy: str, speed: Speed, paused: bool) -> 
         raise Invalid(str(exc), exc.loc) from None
 
 
+def check_field_speed(speed: Speed) -> None:
+    """A new speed for a live field mission: a finite one >= 1 (422 naming `body.speed`)."""
+    try:
+        refusals.check_field(speed=speed)
+    except refusals.FieldRefusal as exc:
+        raise Invalid(str(exc), ("body", *exc.loc)) from None
+
+
 def no_resume(mission_id: int) -> str:
     """Why an interrupted field mission is not resumed: a resume rebuilds a mission by
     replaying the engine, and a field run is not a function of its determinants."""

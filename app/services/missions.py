@@ -25,6 +25,7 @@ from app.services.field_links import link_fields
 from app.services.field_rules import (
     Speed,
     check_field,
+    check_field_speed,
     no_resume,
     processes_of,
     team_processes,
@@ -142,7 +143,7 @@ class MissionService:
     ) -> tuple[MissionRow, LiveState]:
         if field:
             mission, world = await asyncio.to_thread(
-                self._build_field, scenario, seed, policy, speed_value(speed)
+                self._build_field, scenario, seed, policy, speed_value(speed), paused
             )
         else:
             mission, world = await asyncio.to_thread(self._build, scenario, seed, policy, planner)
@@ -182,14 +183,17 @@ class MissionService:
             return mission, mission.world_map()
 
     def _build_field(
-        self, scenario: Scenario, seed: int, policy: str, speed: float | None
+        self, scenario: Scenario, seed: int, policy: str, speed: float | None, paused: bool
     ) -> tuple[MissionInterface, dict[str, Any]]:
         """A field mission: the world service and one agent process per robot, started
-        here; the runner steps it like an engine mission (field/control.py)."""
+        here (paused: their clock stands from the start); the runner steps it like an
+        engine mission (field/control.py)."""
         from field.control import FieldMission
 
         folder = (self.settings.data_dir / "field").resolve()  # journals, the world's log
-        mission = FieldMission(scenario, seed, policy, float(speed or 20.0), folder=folder)
+        mission = FieldMission(
+            scenario, seed, policy, float(speed or 20.0), folder=folder, paused=paused
+        )
         return mission, mission.world_map()
 
     # -- lifecycle ---------------------------------------------------------------------
@@ -200,18 +204,10 @@ class MissionService:
         action = {"t": t, "kind": kind, "args": args}
         await self.store.record_action(lm.id, action, False, changes)
 
-    def _on_wall_clock(self, lm: LiveMission, what: str) -> None:
-        """A field mission's robots keep the wall clock × its speed, whatever the runner
-        does: 'paused' or a new speed would be shown while they work on (docs/field.md)."""
-        if is_field(lm.mission):
-            raise Conflict(
-                f"mission {lm.id} is a field mission: its robots run on the wall clock at "
-                f"a fixed speed; it cannot be {what}"
-            )
-
     async def pause(self, mission_id: int) -> None:
+        """Stop stepping it (a field mission: its world service's clock stands, and every
+        agent's with it, field/clock.py)."""
         lm = await self.live(mission_id)
-        self._on_wall_clock(lm, "paused")
         with self.gate:
             t = self.runner.pause(lm)
         await self._record(lm, t, "pause", {}, {"status": "paused", "sim_time": t})
@@ -271,7 +267,8 @@ class MissionService:
             await self.pause(mission_id)
             return
         lm = await self.live(mission_id)
-        self._on_wall_clock(lm, "given another speed")
+        if is_field(lm.mission):
+            check_field_speed(speed)  # "max" has no meaning on the wall clock: 422
         with self.gate:
             t = self.runner.set_speed(lm, speed_value(speed))
         await self._record(lm, t, "speed", {"speed": speed}, {"speed": lm.speed})

@@ -102,11 +102,12 @@ export class MissionStatus {
     for (const el of $$("#live [data-control]")) {
       if (!el.closest("#robot-table") && el.id !== "resume-button") el.disabled = !can;
     }
-    // a field mission's robots keep the wall clock at the speed it started with (the server
-    // refuses pause and speed with 409): its speed buttons show that speed, and do nothing
+    // a field mission's robots run on the wall clock × its speed: it pauses and takes a new
+    // speed (its world service's clock, every agent's with it), but "max" means nothing there
     for (const b of $$("[data-speed]")) {
-      if (this.field) b.disabled = true;
-      b.title = this.field ? "A field mission runs at a fixed speed on the wall clock" : "";
+      const max = this.field && b.dataset.speed === "max";
+      if (max) b.disabled = true;
+      b.title = max ? "A field mission's robots run on the wall clock: no max speed" : "";
     }
     this.onControls(isOperator(), live);
     const resume = $("#resume-button");

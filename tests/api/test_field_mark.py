@@ -26,7 +26,9 @@ from tests.api.conftest import LiveServer, all_pages, make_settings, wait_for
 def stand_in_field(monkeypatch: pytest.MonkeyPatch) -> None:
     """Field missions built as engine missions (no agent processes); stored as field runs."""
 
-    def build(self: MissionService, scenario: Any, seed: int, policy: str, speed: Any) -> Any:
+    def build(
+        self: MissionService, scenario: Any, seed: int, policy: str, speed: Any, paused: bool
+    ) -> Any:
         return self._build(scenario, seed, policy, "exact")
 
     monkeypatch.setattr(MissionService, "_build_field", build)

@@ -1,8 +1,9 @@
 """A field mission (every robot its own process over Zenoh) on the dashboard, like a simulated
 one: twelve robots on the map moving, counters rising, an operator SIGKILL of a hauler that
 holds a transport shown as a failed robot, its transport re-auctioned to another, a new
-excavator process joining and winning excavations, the mission run to completion at 50×; and
-all of it in the database's tables: every mineral delivered (docs/field.md)."""
+excavator process joining and winning excavations, a pause (its time standing, no delivery)
+and a resume, the mission run to completion at 50×; and all of it in the database's tables:
+every mineral delivered (docs/field.md)."""
 
 from __future__ import annotations
 
@@ -48,16 +49,31 @@ def _field_mission_on_the_dashboard(
     wait_for(page, "window.__regolith.lastCounters.minerals_delivered >= 3", STALL_S, WORK)
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
-    # its robots keep the wall clock: a pause or a new speed is refused, not shown while
-    # they work on (and the dashboard does not offer them)
-    expect(page.locator("[data-speed='0']")).to_be_disabled()
+    # pause: every agent stands (field/clock.py), the dashboard shows the mission paused, its
+    # time standing and no new delivery; then a speed button resumes it (as on a simulated
+    # mission), and its own pace is given back; "max" means nothing on the wall clock
+    expect(page.locator("[data-speed='max']")).to_be_disabled()
     expect(page.locator("#policy-select")).to_be_enabled()
-    for res in (
-        api.post(f"/missions/{mid}/pause"),
-        api.put(f"/missions/{mid}/speed", json={"speed": 5}),
-    ):
-        assert res.status_code == 409 and "field mission" in res.text, res.text
-    assert api.get(f"/missions/{mid}").json()["status"] == "running"
+    pace = api.get(f"/missions/{mid}").json()["speed"]
+    page.locator("[data-speed='0']").click()
+    expect(page.locator("#live-status")).to_have_attribute("data-status", "paused")
+    paused = api.get(f"/missions/{mid}").json()
+    assert paused["status"] == "paused", paused
+    t0 = paused["sim_time"]
+    delivered = page.evaluate("window.__regolith.lastCounters.minerals_delivered")
+    start = time.monotonic()
+    while time.monotonic() - start < max(2.0, 150.0 / pace):  # ~4 deliveries' worth
+        assert api.get(f"/missions/{mid}").json()["sim_time"] == t0
+        assert page.evaluate("window.__regolith.lastCounters.minerals_delivered") == delivered
+        page.wait_for_timeout(100)
+    assert page.evaluate("window.__regolith.t") <= t0 + 1e-6
+    page.locator("[data-speed='10']").click()
+    expect(page.locator("#live-status")).to_have_attribute("data-status", "running")
+    res = api.put(f"/missions/{mid}/speed", json={"speed": pace})
+    assert res.status_code == 200 and res.json()["status"] == "running", res.text
+    wait_for(page, f"window.__regolith.t > {t0}", STALL_S, WORK)
+    acts = [a["kind"] for a in api.get(f"/missions/{mid}/actions").json()]
+    assert acts[-4:] == ["pause", "speed", "resume", "speed"], acts
 
     # SIGKILL a hauler just after it won a transport: the task it held must be re-auctioned
     won = wait_for(  # won in the last 20 simulated seconds: still driving to its excavator

@@ -1,11 +1,14 @@
 """Field chaos: a field mission (mission control and its agent processes, as the server runs
 it: `FieldMission`) under random operator actions at random times — SIGKILLs, rejoins, new
 robots, policy switches (centralized ones refused), operator tasks (some in craters or outside
-the area, refused) — then every killed robot started again and the mission run to its end.
+the area, refused), pauses (with other actions taken while paused) and resumes, new speeds
+("max" and below 1× refused) — then every killed robot started again and the mission run to
+its end.
 
 Checked throughout: minerals conserved in the world service's record (in the piles + on board
 + on the ground + delivered = the total, read at one instant), each task held by at most one
-live robot (the robots' own heartbeats, a task ended since a heartbeat not counted). At the
+live robot (the robots' own heartbeats, a task ended since a heartbeat not counted), and while
+paused no delivery and the world's time standing (field/clock.py). At the
 end: the mission completed with every mineral delivered, every auction record has one
 accepted award and it is the winner's, and no agent process is left.
 
@@ -61,11 +64,20 @@ def _work(status: dict[str, Any]) -> list[Any]:
     return [status[k] for k in WORK if not (k == "scanned" and done_finding)]
 
 
+PAUSE_WALL_S = (0.5, 4.0)
+"""How long (wall) an operator's pause lasts: an operator's action, not a wait for work."""
+
+
 class Chaos:
     def __init__(self, m: FieldMission, rng: random.Random, seed: int) -> None:
         self.m, self.rng, self.seed = m, rng, seed
         self.log: list[str] = []
         self.added = 0
+        self.base_speed = m.speed
+        # while paused: (mission time, delivered) when it paused, when it resumes and when
+        # one more action is taken meanwhile (wall, time.monotonic())
+        self.paused: tuple[float, int] | None = None
+        self.resume_at = self.act_at = math.inf
 
     def note(self, what: str) -> None:
         line = f"t={self.m.now:7.1f} {what}"
@@ -83,10 +95,11 @@ class Chaos:
     def robots(self) -> list[dict[str, Any]]:
         return self.m.robot_list()
 
-    def step(self) -> None:
-        kind = self.rng.choices(
-            ["kill", "enable", "add", "policy", "inject"], weights=[5, 3, 1, 2, 3]
-        )[0]
+    def step(self, clock: bool = True) -> None:
+        kinds, weights = ["kill", "enable", "add", "policy", "inject"], [5, 3, 1, 2, 3]
+        if clock:
+            kinds, weights = [*kinds, "pause", "speed"], [*weights, 3, 2]
+        kind = self.rng.choices(kinds, weights=weights)[0]
         robots = self.robots()
         if kind == "kill":
             up = [r["name"] for r in robots if r["alive"]]
@@ -105,6 +118,37 @@ class Chaos:
             self.try_(f"policy {name}", self.m.set_policy, name)
         elif kind == "inject":
             self.inject()
+        elif kind == "pause":
+            self.pause()
+        elif kind == "speed":
+            base = self.base_speed
+            speed = self.rng.choice([base, base / 2, base * 0.75, "max", 0.5])
+            self.try_(f"speed {speed}", self.m.set_speed, speed)
+
+    def pause(self) -> None:
+        try:
+            t = self.m.pause()
+        except CommandRejected as exc:  # (it ended just now)
+            self.note(f"pause: refused ({exc})")
+            return
+        self.paused = (t, self.m.fleet.world.status()["delivered"])
+        now = time.monotonic()
+        self.resume_at = now + self.rng.uniform(*PAUSE_WALL_S)
+        self.act_at = self.rng.uniform(now, self.resume_at) if self.rng.random() < 0.6 else math.inf
+        self.note(f"pause at {t:.1f}")
+
+    def while_paused(self, status: dict[str, Any]) -> None:
+        """Nothing moves; an action now and then; the resume when it is due."""
+        assert self.paused is not None
+        t, delivered = self.paused
+        assert self.m.now == t, f"seed {self.seed}: the clock moved while paused: {self.m.now}"
+        assert status["delivered"] == delivered, f"seed {self.seed}: delivered while paused"
+        if time.monotonic() >= self.act_at:
+            self.act_at = math.inf
+            self.step(clock=False)
+        elif time.monotonic() >= self.resume_at:
+            self.paused = None
+            self.try_("resume", self.m.resume)
 
     def inject(self) -> None:
         f = self.m.fleet.world.terrain
@@ -283,7 +327,9 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
                 m.advance(m.now)
                 _conserved(m, seed)
                 holders.check()
-                if not settled and m.now >= CHAOS_UNTIL_S:
+                if chaos.paused is not None:
+                    chaos.while_paused(m.fleet.world.status())
+                elif not settled and m.now >= CHAOS_UNTIL_S:
                     chaos.restart_all()
                     settled = True
                 elif not settled and m.now >= next_at:

@@ -70,7 +70,8 @@ def test_an_agent_without_its_own_credential_is_refused(given: str, message: str
     [
         ("nearest", "max", False, "speed"),
         ("nearest", 0.5, False, "speed"),
-        ("nearest", 20.0, True, "speed"),
+        ("nearest", 0, True, "speed"),
+        ("nearest", float("nan"), False, "speed"),
         ("central-greedy", 20.0, False, "policy"),
         ("offline", 20.0, False, "policy"),
     ],
@@ -88,6 +89,7 @@ def test_the_api_refuses_a_field_mission_it_cannot_run(
         check_field(reference_scenario(), policy, speed, paused)  # type: ignore[arg-type]
     assert err.value.loc == (loc,) and err.value.status_code == 422
     check_field(reference_scenario(), "nearest", 20.0, False)  # what it accepts
+    check_field(reference_scenario(), "nearest", 20.0, True)  # paused, too (field/clock.py)
 
 
 @pytest.mark.parametrize("option", ["energy", "docks", "uncertainty", "radio"])
