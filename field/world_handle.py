@@ -220,6 +220,8 @@ class WorldHandle:
         not answer within `wait_s`); a restarted server's: `taken`, each life's next report
         number already stored, read back from there; `preload`, the auctions as stored."""
         self.mission, self.endpoint, self.authority = mission, endpoint, authority
+        self.pid: int | None = None  # the world's process
+        self._popen: subprocess.Popen[bytes] | None = None  # the same, if started here
         self.session = open_session(connect=endpoint)
         self.link = Link(self.session, authority.control, f"mission {mission}")
         self.intake = Intake(self.link, world_on_bus=True)
@@ -307,9 +309,6 @@ class WorldHandle:
             raise
         handle.pid, handle._popen = popen.pid, popen
         return handle
-
-    pid: int | None = None
-    _popen: subprocess.Popen[bytes] | None = None  # the world's process, if started here
 
     # --- what the world's process says ------------------------------------------------------
     def ask(self, op: str, timeout: float = ASK_S, **args: Any) -> Any:

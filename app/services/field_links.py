@@ -190,8 +190,8 @@ async def reattach(store: Store, runner: Any) -> frozenset[int]:
             runner.add(
                 mission_id,
                 mission,
-                speed=float(att.row.speed or 20.0),
-                paused=False,
+                speed=mission.speed,
+                paused=mission.paused,  # as its world's clock stands (paused before the stop)
                 recorder=Recorder(mission_id, mission, att.stored),
                 row=att.row,
             )
