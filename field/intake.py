@@ -1,9 +1,10 @@
 """What mission control takes in from a field mission's key space, checked.
 
 Every protocol message is opened like a robot opens it (`field.transport.open_message`), and
-every event and auction record an agent reports must be signed by that agent, be about
-itself (an auction record only of an auction it holds, an event only in its own name) and
-have the shape the service stores (`ReportedAuction`, `ReportedEvent`). What fails is dropped
+every event, auction record and pose an agent reports must be signed by that agent, be about
+itself (an auction record only of an auction it holds, an event or a pose only in its own
+name, a pose only from a robot with a body) and have the shape the service stores
+(`ReportedAuction`, `ReportedEvent`, `ReportedPose`). What fails is dropped
 and counted: nothing a robot sends can put a record in front of the service that the
 service cannot store, or that another robot should have sent.
 """
@@ -82,6 +83,22 @@ class ReportedEvent(_Strict):
         return v
 
 
+class ReportedPose(_Strict):
+    """A robot's own pose at mission time `t` (`field.agent.Agent._report_poses`), stored
+    for playback. Strict: JSON numbers are numbers, never strings or booleans."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    kind: Literal["pose"]
+    t: Time
+    x: Coordinate
+    y: Coordinate
+    heading: Annotated[float, Field(allow_inf_nan=False, ge=-10.0, le=10.0)]  # radians
+    state: Annotated[str, Field(pattern=r"^[a-z_]{1,32}$")]
+    load: Annotated[int, Field(ge=0, le=64)]
+    by: Name | None = None  # (optional: the signer is the robot)
+
+
 @dataclass
 class Intake:
     """Everything mission control hears: protocol messages (checked, counted), events and
@@ -93,6 +110,7 @@ class Intake:
     events: list[dict[str, Any]] = field(default_factory=list)
     heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
     auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
+    poses: list[dict[str, Any]] = field(default_factory=list)  # {"robot", "t", "x", ...}
     agents_dropped: dict[str, int] = field(default_factory=dict)  # by agent, its own count
     lock: threading.Lock = field(default_factory=threading.Lock)
     on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
@@ -136,7 +154,7 @@ class Intake:
         if opened.sender == CONTROL:
             return  # the world service's own events: taken in once, by `on_world_event`
         try:
-            self.take(opened.sender, data)
+            self.take(opened.sender, data, opened.cert.role)
         except Rejected as exc:
             self.link.opener.rejections.count(exc)
         except (ValidationError, ValueError, TypeError) as exc:
@@ -146,8 +164,9 @@ class Intake:
                 detail = f"{'.'.join(map(str, first['loc']))}: {first['msg']}"
             self.link.opener.rejections.count(Rejected("invalid report", opened.sender, detail))
 
-    def take(self, sender: str, data: dict[str, Any]) -> None:
-        """One checked report from agent `sender` (Rejected or ValidationError otherwise)."""
+    def take(self, sender: str, data: dict[str, Any], role: str = "") -> None:
+        """One checked report from agent `sender`, of certified `role` (Rejected or
+        ValidationError otherwise)."""
         kind = data.get("kind")
         if kind == "auction":
             rec = ReportedAuction.model_validate(data.get("record")).model_dump(mode="json")
@@ -162,6 +181,14 @@ class Intake:
                 raise Rejected("impersonation", sender, f"event {ev['event']!r}")
             with self.lock:
                 self.events.append(ev)
+        elif kind == "pose":
+            pose = ReportedPose.model_validate(data).model_dump(exclude={"kind", "by"})
+            if data.get("by", sender) != sender:
+                raise Rejected("impersonation", sender, "pose")
+            if role == "operator":
+                raise Rejected("not allowed", sender, "a pose of the operator's console")
+            with self.lock:
+                self.poses.append({"robot": sender, **pose})
         elif kind == "rejections":
             total = data.get("total")
             if not isinstance(total, int) or not 0 <= total < 2**53:

@@ -27,7 +27,7 @@ from sqlalchemy import Insert, Table, case, func, insert, select, update
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
-from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, Sweep, utcnow
+from app.db.models import Action, Auction, Award, Base, Bid, Event, Mission, Pose, Sweep, utcnow
 from app.live.recorder import Batch, Stored
 
 T = TypeVar("T")
@@ -214,6 +214,8 @@ def _write_batch(session: Session, batch: Batch, changes: dict[str, Any]) -> Non
         session.execute(_core(Award), batch.awards)
     if batch.changed_awards:
         session.execute(update(Award), batch.changed_awards)
+    if batch.poses:
+        session.execute(_core(Pose), batch.poses)
     latest = case((Mission.sim_time < batch.sim_time, batch.sim_time), else_=Mission.sim_time)
     _update_mission(session, batch.mission_id, {"sim_time": latest, **changes})
 
