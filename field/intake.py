@@ -182,8 +182,9 @@ class Intake:
             with self.lock:
                 self.events.append(ev)
         elif kind == "pose":
-            pose = ReportedPose.model_validate(data).model_dump(exclude={"kind", "by"})
-            if data.get("by", sender) != sender:
+            fields = {k: v for k, v in data.items() if k != "v"}  # (the wire's version)
+            pose = ReportedPose.model_validate(fields).model_dump(exclude={"kind", "by"})
+            if fields.get("by", sender) != sender:
                 raise Rejected("impersonation", sender, "pose")
             if role == "operator":
                 raise Rejected("not allowed", sender, "a pose of the operator's console")
