@@ -5,6 +5,7 @@ run*), and no request is refused with 409."""
 
 from __future__ import annotations
 
+import math
 import random
 from typing import Any
 
@@ -94,11 +95,10 @@ def test_scrub_a_stopped_field_run(
     rng = random.Random()
     some = rng.choice(poses[len(poses) // 3 : -12])
     nxt = next(q for q in poses if q[0] == some[0] and q[1] > some[1])
+    # (to the millisecond, rounded down: the slider clamps a time past the end to the end)
     times = [
-        round(poses[0][1] / 2, 3),
-        round(some[1], 3),
-        round((some[1] + nxt[1]) / 2, 3),
-        round(min(end, poses[-1][1] + 1.0), 3),
+        math.floor(1000 * t) / 1000
+        for t in (poses[0][1] / 2, some[1], (some[1] + nxt[1]) / 2, min(end, poses[-1][1] + 1))
     ]
     for t in times:
         page.locator("#tl-range").fill(str(t))
