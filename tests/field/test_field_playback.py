@@ -7,6 +7,7 @@ from __future__ import annotations
 import base64
 import math
 import random
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -45,7 +46,7 @@ def event(seq: int, t: float, kind: str, **data: Any) -> dict[str, Any]:
     return {"seq": seq, "t": t, "kind": kind, "data": data}
 
 
-def stored_at(t: float, poses: list[PoseRow], events: list[dict[str, Any]] = ()) -> Stored:  # type: ignore[assignment]
+def stored_at(t: float, poses: list[PoseRow], events: Sequence[dict[str, Any]] = ()) -> Stored:
     """What `read_stored` would read up to `t` from these rows."""
     after: dict[str, PoseRow] = {}
     for p in sorted(poses, key=lambda p: p.t):
