@@ -55,7 +55,6 @@ class FieldMission(MissionViews):
         self.actions: list[dict[str, Any]] = []
         self.status = "running"
         self._seen_events = 0
-        self._seen_poses = 0
         self._poses: list[dict[str, Any]] = []  # taken in, not yet taken by the recorder
         self._seen_auctions: set[str] = set()
         self._taken: dict[str, dict[str, Any]] = {}  # each record as last taken in
@@ -123,8 +122,7 @@ class FieldMission(MissionViews):
         with rec.lock:
             fresh = rec.events[self._seen_events :]
             self._seen_events = len(rec.events)
-            poses = rec.poses[self._seen_poses :]
-            self._seen_poses = len(rec.poses)
+            poses, rec.poses = rec.poses, []  # (nobody else reads them: not kept twice)
             new_ids = [a for a in rec.auctions if a not in self._seen_auctions]
             changed = [a for a, r in rec.auctions.items() if self._taken.get(a) is not r]
             self._taken.update((a, rec.auctions[a]) for a in changed)

@@ -102,7 +102,8 @@ class ReportedPose(_Strict):
 @dataclass
 class Intake:
     """Everything mission control hears: protocol messages (checked, counted), events and
-    auction records (the latest version of each auction), and what the agents dropped."""
+    auction records (the latest version of each auction), the robots' poses (until the
+    mission takes them: `FieldMission._take_in`), and what the agents dropped."""
 
     link: Link
     messages: int = 0
@@ -110,7 +111,7 @@ class Intake:
     events: list[dict[str, Any]] = field(default_factory=list)
     heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
     auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
-    poses: list[dict[str, Any]] = field(default_factory=list)  # {"robot", "t", "x", ...}
+    poses: list[dict[str, Any]] = field(default_factory=list)  # {"robot", "t", ...}, not taken yet
     agents_dropped: dict[str, int] = field(default_factory=dict)  # by agent, its own count
     lock: threading.Lock = field(default_factory=threading.Lock)
     on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
