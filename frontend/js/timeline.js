@@ -14,8 +14,9 @@ export const MARK = {
   site: { label: "site found", glyph: "●", colour: "#f0e442" },
 };
 
-/** Where a moment shown comes from, said on the timeline (its title) and, for a field run,
- * in a small note beside it: a simulated mission is replayed, a field run cannot be. */
+/** Where a moment shown comes from, said on the timeline (its accessible description) and,
+ * for a field run, in a small note beside it: a simulated mission is replayed, a field run
+ * cannot be. (Not a title on the whole timeline: it would pop up over the slider.) */
 export const SOURCE = {
   replay: "Playback: the server rebuilds each moment by replaying the mission (exact)",
   poses:
@@ -57,7 +58,7 @@ export class Timeline {
     this.note = h("span", { id: "tl-source", class: "badge field tl-source", title: SOURCE.poses, hidden: true }, "field: stored poses");
     this.el = h(
       "section",
-      { id: "timeline", class: "timeline", "aria-label": "Mission playback", title: SOURCE.replay, dataset: { mode: "latest", t: "", end: "0", shownT: "", source: "replay" } },
+      { id: "timeline", class: "timeline", "aria-label": "Mission playback", "aria-description": SOURCE.replay, dataset: { mode: "latest", t: "", end: "0", shownT: "", source: "replay" } },
       this.note,
       this.play,
       this.speed,
@@ -86,7 +87,7 @@ export class Timeline {
   /** "replay" (a simulated mission) or "poses" (a field run's stored poses): said, not acted on. */
   setSource(source) {
     this.el.dataset.source = source;
-    this.el.title = SOURCE[source];
+    this.el.setAttribute("aria-description", SOURCE[source]);
     this.note.hidden = source !== "poses";
   }
 
