@@ -18,6 +18,7 @@ import itertools
 import logging
 import threading
 import time
+from collections.abc import Generator
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +69,12 @@ WATCHER_JOIN_S = QUERY_TIMEOUT_S + 1.0
 """How long `close` waits for the watch on the world service to end (it may be asking)."""
 REPORT_REJECTIONS_S = 1.0
 """How often (wall) an agent tells mission control what it dropped, when that changed."""
+POSE_INTERVAL_S = 5.0
+"""How often (mission time) a robot reports its own pose, which mission control stores so a
+field run can be played back (`app/services/field_playback.py` interpolates between two).
+Mission time, not wall: the same spacing at any speed, none while the clock stands. 5 s keeps
+a 2,500 s run at ~6,000 rows for twelve robots, and a robot (1 m/s at most by default) within a
+few metres of the straight line drawn between two reports."""
 
 
 class Agent(Asking):
@@ -166,6 +173,8 @@ class Agent(Asking):
             else None
         )
         robot.start(joined_late=bool(spawn["joined_late"]))
+        if rtype != "operator":  # (the operator's console has no body)
+            self.env.process(self._report_poses())
 
     def _on_body(self, query: Any) -> None:
         """Another robot looks at this one, or says something of a hand-over (Zenoh's thread).
@@ -267,6 +276,25 @@ class Agent(Asking):
             self.link.put(event_key(self.mission, self.name), data, self._events)
         except Exception as exc:  # pragma: no cover - a closed session at shutdown
             log.debug("report failed: %s", exc)
+
+    def _report_poses(self) -> Generator[simpy.Event, None, None]:
+        """Where this robot is, every `POSE_INTERVAL_S` of mission time (read as the engine's
+        views read it, `engine.views.SimulatedViews`), for the mission's stored record."""
+        robot = self.robot
+        while True:
+            (x, y), heading = robot.mobility.position()
+            self.report(
+                {
+                    "kind": "pose",
+                    "t": float(self.env.now),
+                    "x": float(x),
+                    "y": float(y),
+                    "heading": float(heading),
+                    "state": str(robot.state),
+                    "load": int(robot.load()),
+                }
+            )
+            yield self.env.timeout(POSE_INTERVAL_S)
 
     # --- the clock loop ---------------------------------------------------------------------
     def _watch_world(self) -> None:

@@ -75,6 +75,7 @@ class FieldMission(MissionViews):
         self.actions: list[dict[str, Any]] = []
         self.status = "running"
         self._seen_events = 0
+        self._poses: list[dict[str, Any]] = []  # taken in, not yet taken by the recorder
         self._seen_auctions: set[str] = set()
         self._taken: dict[str, dict[str, Any]] = {}  # each record as last taken in
         self._auction_watchers: list[Callable[[str], None]] = []
@@ -148,10 +149,13 @@ class FieldMission(MissionViews):
         with rec.lock:
             fresh = rec.events[self._seen_events :]
             self._seen_events = len(rec.events)
+            poses, rec.poses = rec.poses, []  # (nobody else reads them: not kept twice)
             new_ids = [a for a in rec.auctions if a not in self._seen_auctions]
             changed = [a for a, r in rec.auctions.items() if self._taken.get(a) is not r]
             self._taken.update((a, rec.auctions[a]) for a in changed)
             heard = list(rec.heartbeats.items())
+        with self._lock:
+            self._poses.extend(poses)
         self._seen_auctions.update(new_ids)
         self.auctions.extend(RecordView(rec.auctions, a) for a in new_ids)
         self.odometer.heard(heard)
@@ -164,6 +168,14 @@ class FieldMission(MissionViews):
                 self.origins[ev.seq] = (str(e["src"]), int(e["rseq"]))
         for fn, aid in itertools.product(self._auction_watchers, changed):
             fn(aid)
+
+    def take_poses(self) -> list[dict[str, Any]]:
+        """The robots' reported poses taken in since the last call (`{"robot", "t", "x", "y",
+        "heading", "state", "load"}`), for the recorder to store: a field run is played back
+        from them (`app/services/field_playback.py`), as it cannot be re-simulated."""
+        with self._lock:
+            out, self._poses = self._poses, []
+        return out
 
     def _end(self, status: str) -> None:
         self.fleet.catch_up()  # every report up to the end, before the end is logged

@@ -1,9 +1,10 @@
 """What mission control takes in from a field mission's key space, checked.
 
 Every protocol message is opened like a robot opens it (`field.transport.open_message`), and
-every event and auction record an agent reports must be signed by that agent, be about
-itself (an auction record only of an auction it holds, an event only in its own name) and
-have the shape the service stores (`ReportedAuction`, `ReportedEvent`). What fails is dropped
+every event, auction record and pose an agent reports must be signed by that agent, be about
+itself (an auction record only of an auction it holds, an event or a pose only in its own
+name, a pose only from a robot with a body) and have the shape the service stores
+(`ReportedAuction`, `ReportedEvent`, `ReportedPose`). What fails is dropped
 and counted: nothing a robot sends can put a record in front of the service that the
 service cannot store, or that another robot should have sent.
 """
@@ -19,6 +20,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from engine.messages import Heartbeat
+from engine.team import robot_type
 from field.journal import source_of
 from field.link import Link
 from field.transport import open_message
@@ -85,10 +87,27 @@ class ReportedEvent(_Strict):
         return v
 
 
+class ReportedPose(_Strict):
+    """A robot's own pose at mission time `t` (`field.agent.Agent._report_poses`), stored
+    for playback. Strict: JSON numbers are numbers, never strings or booleans."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    kind: Literal["pose"]
+    t: Time
+    x: Coordinate
+    y: Coordinate
+    heading: Annotated[float, Field(allow_inf_nan=False, ge=-10.0, le=10.0)]  # radians
+    state: Annotated[str, Field(pattern=r"^[a-z_]{1,32}$")]
+    load: Annotated[int, Field(ge=0, le=64)]
+    by: Name | None = None  # (optional: the signer is the robot)
+
+
 @dataclass
 class Intake:
     """Everything mission control hears: protocol messages (checked, counted), events and
-    auction records (the latest version of each auction), and what the agents dropped."""
+    auction records (the latest version of each auction), the robots' poses (until the
+    mission takes them: `FieldMission._take_in`), and what the agents dropped."""
 
     link: Link
     messages: int = 0
@@ -96,6 +115,7 @@ class Intake:
     events: list[dict[str, Any]] = field(default_factory=list)
     heartbeats: dict[str, Heartbeat] = field(default_factory=dict)  # the last, by sender
     auctions: dict[str, dict[str, Any]] = field(default_factory=dict)
+    poses: list[dict[str, Any]] = field(default_factory=list)  # {"robot", "t", ...}, not taken yet
     agents_dropped: dict[str, int] = field(default_factory=dict)  # by agent, its own count
     lock: threading.Lock = field(default_factory=threading.Lock)
     on_heard: Callable[[str, tuple[float, float] | None], None] | None = None
@@ -146,11 +166,11 @@ class Intake:
         if opened.sender == WORLD and not self.world_on_bus:
             return  # the world service's own events: taken in once, by `on_world_event`
         if data.get("kind") == "rejections":  # a count, not a record: the latest one counts
-            self._take_checked(opened.sender, "", data)
+            self._take_checked(opened.sender, "", data, opened.cert.role)
         else:
-            self.offer(opened.sender, opened.cert.gen, data)
+            self.offer(opened.sender, opened.cert.gen, data, opened.cert.role)
 
-    def offer(self, sender: str, gen: int, data: dict[str, Any]) -> None:
+    def offer(self, sender: str, gen: int, data: dict[str, Any], role: str = "") -> None:
         """A numbered report of `sender`'s life `gen`, heard on the bus or read back from its
         journal: taken in number order, once (a later one waits for the ones before it,
         which the journal fills in: `behind`)."""
@@ -169,10 +189,10 @@ class Intake:
                 if len(ahead) < AHEAD_MAX:  # (past it: read back from the journal later)
                     ahead[rseq] = data
                 return
-            self._take_checked(sender, src, data)
+            self._take_checked(sender, src, data, role)
             nxt += 1
             while nxt in ahead:
-                self._take_checked(sender, src, ahead.pop(nxt))
+                self._take_checked(sender, src, ahead.pop(nxt), role)
                 nxt += 1
             self.next_rseq[src] = nxt
 
@@ -181,10 +201,12 @@ class Intake:
         with self._order:
             return {src: self.next_rseq.get(src, 0) for src, ahead in self._ahead.items() if ahead}
 
-    def _take_checked(self, sender: str, src: str, data: dict[str, Any]) -> None:
-        """Taken, or counted as rejected: either way its number is used up."""
+    def _take_checked(self, sender: str, src: str, data: dict[str, Any], role: str = "") -> None:
+        """Taken, or counted as rejected: either way its number is used up. (`role`: the
+        certificate's; a report read back from a journal has the one its name was issued.)"""
         try:
-            self.take(sender, {**data, "src": src} if data.get("kind") == "event" else data)
+            data = {**data, "src": src} if data.get("kind") in ("event", "pose") else data
+            self.take(sender, data, role or robot_type(sender))
         except Rejected as exc:
             self.link.opener.rejections.count(exc)
         except (ValidationError, ValueError, TypeError) as exc:
@@ -194,8 +216,9 @@ class Intake:
                 detail = f"{'.'.join(map(str, first['loc']))}: {first['msg']}"
             self.link.opener.rejections.count(Rejected("invalid report", sender, detail))
 
-    def take(self, sender: str, data: dict[str, Any]) -> None:
-        """One checked report from agent `sender` (Rejected or ValidationError otherwise)."""
+    def take(self, sender: str, data: dict[str, Any], role: str = "") -> None:
+        """One checked report from agent `sender`, of certified `role` (Rejected or
+        ValidationError otherwise)."""
         kind = data.get("kind")
         if kind == "auction":
             rec = ReportedAuction.model_validate(data.get("record")).model_dump(mode="json")
@@ -211,6 +234,16 @@ class Intake:
             ev["src"], ev["rseq"] = data.get("src"), data.get("rseq")
             with self.lock:
                 self.events.append(ev)
+        elif kind == "pose":
+            fields = {k: v for k, v in data.items() if k not in ("v", "src", "rseq")}
+            pose = ReportedPose.model_validate(fields).model_dump(exclude={"kind", "by"})
+            if fields.get("by", sender) != sender:
+                raise Rejected("impersonation", sender, "pose")
+            if role == "operator":
+                raise Rejected("not allowed", sender, "a pose of the operator's console")
+            pose["source"], pose["rseq"] = data.get("src"), data.get("rseq")
+            with self.lock:
+                self.poses.append({"robot": sender, **pose})
         elif kind == "rejections":
             total = data.get("total")
             if not isinstance(total, int) or not 0 <= total < 2**53:

@@ -1,5 +1,5 @@
 """Storage models: missions, their event log, auctions with bids and awards, operator actions,
-and policy sweeps.
+field robots' reported poses, and policy sweeps.
 
 Kept apart from the API schemas (`app/api/schemas.py`); only `app/services/store.py` writes.
 Engine-side identifiers (auction ids, event seq) are natural keys scoped by mission.
@@ -115,6 +115,27 @@ class Event(Base):
     kind: Mapped[str] = mapped_column(String(40))
     data: Mapped[dict[str, Any]]
     source: Mapped[str | None] = mapped_column(String(80))
+    rseq: Mapped[int | None] = mapped_column(BigInteger)
+
+
+class Pose(Base):
+    """A field robot's pose as it reported it (every 5 s of mission time,
+    `field.agent.POSE_INTERVAL_S`): a field run is played back from these, since it cannot be
+    re-simulated (`app/services/field_playback.py`). Simulated missions store none."""
+
+    __tablename__ = "poses"
+    __table_args__ = (Index("ix_poses_mission_t", "mission_id", "t"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    mission_id: Mapped[int] = mapped_column(ForeignKey("missions.id", ondelete="CASCADE"))
+    t: Mapped[float] = mapped_column(Float)
+    robot: Mapped[str] = mapped_column(String(80))
+    x: Mapped[float] = mapped_column(Float)
+    y: Mapped[float] = mapped_column(Float)
+    heading: Mapped[float] = mapped_column(Float)
+    state: Mapped[str] = mapped_column(String(32))
+    load: Mapped[int] = mapped_column(Integer)
+    source: Mapped[str | None] = mapped_column(String(80))  # as `Event.source`
     rseq: Mapped[int | None] = mapped_column(BigInteger)
 
 

@@ -3,13 +3,15 @@
 Pure bookkeeping, called by the live runner on the event loop while it holds the engine's
 gate (`app/live/gate.py`), so no step runs meanwhile: it reads the engine's append-only event
 log and auction records by cursor and remembers how many bids and awards each auction already
-has stored, so a batch holds only new rows and the auctions whose outcome changed.
+has stored, so a batch holds only new rows and the auctions whose outcome changed. A field
+mission also hands over its robots' reported poses (`PoseSource`): a field run is played back
+from them; a simulated one stores none (replay rebuilds it).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from engine import AuctionView, MissionInterface
 
@@ -26,9 +28,21 @@ class Batch:
     bids: list[dict[str, Any]] = field(default_factory=list)
     awards: list[dict[str, Any]] = field(default_factory=list)
     changed_awards: list[dict[str, Any]] = field(default_factory=list)
+    poses: list[dict[str, Any]] = field(default_factory=list)
 
     def __len__(self) -> int:
-        return len(self.events) + len(self.new_auctions) + len(self.changed_auctions)
+        return (
+            len(self.events) + len(self.new_auctions) + len(self.changed_auctions) + len(self.poses)
+        )
+
+
+@runtime_checkable
+class PoseSource(Protocol):
+    """A mission whose robots report their poses (`field.control.FieldMission`)."""
+
+    def take_poses(self) -> list[dict[str, Any]]:
+        """The poses reported since the last call, each `{"robot", "t", "x", "y", "heading",
+        "state", "load"}`."""
 
 
 def auction_row(mission_id: int, d: dict[str, Any]) -> dict[str, Any]:
@@ -99,6 +113,8 @@ class Recorder:
         fresh = log[self._events :]
         self._events = len(log)
         batch = Batch(self.mission_id, float(m.now))
+        if isinstance(m, PoseSource):
+            batch.poses = [{"mission_id": self.mission_id, **p} for p in m.take_poses()]
         dirty: set[str] = set()
         # a field run's: the process life that reported each event, and its number there
         origins: dict[int, tuple[str, int]] = getattr(m, "origins", None) or {}

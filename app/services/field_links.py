@@ -22,7 +22,7 @@ from typing import Any
 from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
-from app.db.models import Action, Auction, Award, Bid, Event, FieldLink, Mission
+from app.db.models import Action, Auction, Award, Bid, Event, FieldLink, Mission, Pose
 from app.live.recorder import Recorder, Stored
 from app.services.store import LIVE_STATUSES, Store, stored_counts
 from engine import Scenario
@@ -84,14 +84,14 @@ def _attachment(session: Session, mission_id: int, gen: int) -> Attachment:
     link = session.get(FieldLink, mission_id)
     assert row is not None and link is not None
     last = session.scalar(select(func.max(Event.seq)).where(Event.mission_id == mission_id))
-    taken = {
-        str(src): int(top) + 1
+    taken: dict[str, int] = {}
+    for table in (Event, Pose):  # (a batch is stored whole: each life's is a prefix)
         for src, top in session.execute(
-            select(Event.source, func.max(Event.rseq))
-            .where(Event.mission_id == mission_id, Event.source.is_not(None))
-            .group_by(Event.source)
-        )
-    }
+            select(table.source, func.max(table.rseq))
+            .where(table.mission_id == mission_id, table.source.is_not(None))
+            .group_by(table.source)
+        ):
+            taken[str(src)] = max(taken.get(str(src), 0), int(top) + 1)
     stored = stored_counts(session, mission_id)
     stored.events = 0  # the rebuilt log holds only what comes next (numbered on from `last`)
     att = Attachment(row, link, gen, 0 if last is None else int(last) + 1, taken, stored)

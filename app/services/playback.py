@@ -9,9 +9,10 @@ kept those arenas from going back to the system: after a burst of scrubs the ser
 server stops the worker once playback has been idle for `REGOLITH_PLAYBACK_IDLE_S`, which
 gives all of it back; the next scrub starts a new one (a second or two to import the engine).
 
-Here: the checks a request needs the database for (404, 422 past the end, 409 for a field
-mission), the replayable actions (a live mission's from its engine, so an action just applied
-counts before it is committed), and the worker's life. Concurrent requests for the same
+Here: the checks a request needs the database for (404, 422 past the end), the replayable
+actions (a live mission's from its engine, so an action just applied counts before it is
+committed), and the worker's life. A field run is never replayed: its moments are read from
+its stored poses and events (`app/services/field_playback.py`). Concurrent requests for the same
 moment of a mission share one answer; at most `IN_FLIGHT` requests are with the worker at a
 time and at most `REGOLITH_PLAYBACK_QUEUE` wait in all (429 beyond). A worker that dies
 (killed, crashed, or sent a malformed or oversized frame) answers every request it held with
@@ -31,9 +32,12 @@ from pathlib import Path
 from time import monotonic
 from typing import Any
 
+from sqlalchemy.orm import Session
+
 import app
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
+from app.services import field_playback
 from app.services.errors import Conflict, Invalid, LimitExceeded, Unavailable
 from app.services.live_state import LiveState
 from app.services.missions import MissionService
@@ -213,22 +217,18 @@ class Playback:
 
     async def state_at(self, mission_id: int, t: float) -> StateAt:
         """The state of mission `mission_id` at simulated time `t` (404 unknown, 422 `t`
-        past the mission's time, 409 if its replay fails or it is a field mission, 429 when
-        too many scrubs wait, 503 if the worker dies meanwhile)."""
+        past the mission's time, 409 if its replay fails, 429 when too many scrubs wait, 503
+        if the worker dies meanwhile). A field run is read from its stored poses and events
+        instead (`app/services/field_playback.py`): it cannot be re-simulated."""
         row, live = await self.missions.detail(mission_id)
-        if row.mode == "field":
-            raise Conflict(
-                f"mission {mission_id} is a field mission: playback re-simulates a mission "
-                "from its scenario, seed and actions, and a field run (real agent processes) "
-                "cannot be re-simulated; its stored events and auctions are at "
-                f"/api/missions/{mission_id}/events and /auctions"
-            )
         end = live.sim_time if live is not None else row.sim_time
         if t > end + _EPS:
             raise Invalid(
                 f"t: {t:g} is past the end of mission {mission_id} (simulated time {end:g})",
                 ("query", "t"),
             )
+        if row.mode == "field":
+            return await self._field(row, live, t, end)
         actions = self._actions(mission_id, row)
         upto = sum(1 for a in actions if float(a["t"]) <= t)
         request = {
@@ -246,6 +246,29 @@ class Playback:
         }
         # the same moment asked twice at once (the same actions up to it): one replay
         out = await self._flights.run((mission_id, t, upto), lambda: self._ask(request))
+        return StateAt(
+            t, end, row, live, out["state"], out["auctions"], out["deliveries"], out["events"]
+        )
+
+    async def _field(
+        self, row: MissionRow, live: LiveState | None, t: float, end: float
+    ) -> StateAt:
+        """A field run at `t`, from the database alone (live too: stored up to now)."""
+        ended = live is None and t >= end - _EPS
+        mission = {
+            "status": row.status if ended else "running",
+            "policy": row.policy,
+            "scenario": row.scenario_name,
+            "seed": row.seed,
+        }
+        world = row.world_map or {}
+
+        def read(session: Session) -> dict[str, Any]:
+            return field_playback.moment(
+                field_playback.read_stored(session, row.id, t), t, mission, world
+            )
+
+        out = await self.missions.store.read(read)
         return StateAt(
             t, end, row, live, out["state"], out["auctions"], out["deliveries"], out["events"]
         )

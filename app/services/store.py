@@ -36,6 +36,7 @@ from app.db.models import (
     Event,
     FieldLink,
     Mission,
+    Pose,
     Sweep,
     utcnow,
 )
@@ -155,6 +156,11 @@ class Store:
         a final batch (with `changes`) is urgent."""
         priority = URGENT if changes else BULK
         events = batch.events
+        if batch.poses or (events and events[0].get("source") is not None):
+            # a field run's: one transaction, so what is stored of each process life is
+            # always a prefix of what it reported (a restarted server reads on from there)
+            await self._submit(_write_batch, batch, changes or {}, priority=priority)
+            return
         parts = [
             self._submit(_insert_events, events[i : i + CHUNK_ROWS], priority=priority)
             for i in range(0, len(events) - CHUNK_ROWS, CHUNK_ROWS)
@@ -239,6 +245,8 @@ def _write_batch(session: Session, batch: Batch, changes: dict[str, Any]) -> Non
         session.execute(_core(Award), batch.awards)
     if batch.changed_awards:
         session.execute(update(Award), batch.changed_awards)
+    if batch.poses:
+        session.execute(_core(Pose), batch.poses)
     latest = case((Mission.sim_time < batch.sim_time, batch.sim_time), else_=Mission.sim_time)
     _update_mission(session, batch.mission_id, {"sim_time": latest, **changes})
 

@@ -9,7 +9,7 @@ const PAGE = 20;
 
 /** The small "field" mark of a field run (real agent processes, docs/field.md), else null. */
 export const fieldMark = (m) =>
-  m.mode === "field" ? h("span", { class: "badge field", title: "A field run (real agent processes): not replayable, kept apart from simulated runs" }, "field") : null;
+  m.mode === "field" ? h("span", { class: "badge field", title: "A field run (real agent processes): played back from its stored poses, never re-simulated; kept apart from simulated runs" }, "field") : null;
 
 export class MissionsPage {
   constructor() {

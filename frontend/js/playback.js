@@ -1,6 +1,7 @@
 // Mission playback: show any earlier moment of the mission in the live view. The state at a
 // simulated time t comes from the server (`GET /api/missions/{id}/state?t=`, rebuilt there by
-// replay, so it is exact); this module asks for it as the timeline is scrubbed or played and
+// replay, so it is exact; a field run's from its robots' stored poses and events, in the same
+// shape, since it cannot be re-simulated); this module asks for it as the timeline is scrubbed or played and
 // puts it on the map, the robot table, the auction feed and the charts. While it looks back
 // at a live mission the stream stays connected: status messages still reach the badge, the
 // timeline's end follows the frames, and "Back to live" reconnects for a fresh snapshot.
@@ -15,9 +16,6 @@ const MARKERS_MS = 10000; // marker refresh while the mission is live
 const MARKER_EVENTS = { robot_failed: "failure", policy_changed: "policy", site_found: "site" };
 const MARKER_PAGES = 10;
 const MARKER_KINDS = Object.keys(MARKER_EVENTS).map((k) => `&kind=${k}`).join("");
-/** Why a field run has no playback: the server rebuilds a moment by re-simulating the run. */
-export const FIELD_NO_PLAYBACK =
-  "No playback for a field run: its robots were real processes, so a moment of it cannot be rebuilt by re-simulating it. The map, the lists and the charts follow the run as it happens.";
 
 function scalar(v) {
   if (Array.isArray(v)) return `(${v.map((x) => (typeof x === "number" ? x.toFixed(1) : x)).join(", ")})`;
@@ -82,6 +80,7 @@ export class Playback {
     this.timeline.setTime(0);
     this.timeline.setMarkers([], () => {});
     this.timeline.setDisabled(null);
+    this.timeline.setSource("replay");
     this._mode("latest");
     this.loaded = false; // markers are read once the stream says the mission exists
   }
@@ -98,7 +97,7 @@ export class Playback {
     if (msg.type === "frame") this._liveTime(msg.t);
     else if (msg.type === "snapshot") {
       const m = msg.mission; // the badge is the server's word, even while looking back
-      if (m.mode === "field") this._noPlayback(FIELD_NO_PLAYBACK);
+      this.timeline.setSource(m.mode === "field" ? "poses" : "replay"); // said; played back alike
       if (!this.loaded) this._loadMarkers();
       this._liveTime(m.sim_time);
       if (this.active) this.view.status.set({ status: m.status, policy: m.policy, speed: m.speed, error: m.error });
@@ -126,12 +125,6 @@ export class Playback {
     } catch {
       /* the next answer carries the end */
     }
-  }
-
-  /** This mission cannot be looked back at: say why, and follow the stream only. */
-  _noPlayback(reason) {
-    this.timeline.setDisabled(reason);
-    if (this.active) this.latest();
   }
 
   /** Show the mission at simulated time t (entering look-back). */

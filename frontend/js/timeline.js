@@ -14,6 +14,15 @@ export const MARK = {
   site: { label: "site found", glyph: "●", colour: "#f0e442" },
 };
 
+/** Where a moment shown comes from, said on the timeline (its accessible description) and,
+ * for a field run, in a small note beside it: a simulated mission is replayed, a field run
+ * cannot be. (Not a title on the whole timeline: it would pop up over the slider.) */
+export const SOURCE = {
+  replay: "Playback: the server rebuilds each moment by replaying the mission (exact)",
+  poses:
+    "Playback of a field run: its robots were real processes and cannot be re-simulated, so each moment is drawn from the poses they reported every 5 s of mission time (on the straight line between two) and the stored events",
+};
+
 /** Each kind on a row of its own, so markers at one time do not hide each other. */
 const ROW = { failure: 0, policy: 1, operator: 2, site: 3 };
 
@@ -46,9 +55,11 @@ export class Timeline {
     this.time = h("output", { id: "tl-time", class: "tl-time" }, "–");
     this.latest = h("button", { type: "button", class: "btn small primary", id: "tl-latest", onclick: () => onLatest() }, "Back to live");
     this.why = h("p", { id: "tl-why", class: "tl-why", hidden: true });
+    this.note = h("span", { id: "tl-source", class: "badge field tl-source", title: SOURCE.poses, hidden: true }, "field: stored poses");
     this.el = h(
       "section",
-      { id: "timeline", class: "timeline", "aria-label": "Mission playback", dataset: { mode: "latest", t: "", end: "0", shownT: "" } },
+      { id: "timeline", class: "timeline", "aria-label": "Mission playback", "aria-description": SOURCE.replay, dataset: { mode: "latest", t: "", end: "0", shownT: "", source: "replay" } },
+      this.note,
       this.play,
       this.speed,
       h("div", { class: "tl-track" }, this.range, this.markLayer),
@@ -71,6 +82,13 @@ export class Timeline {
     this.why.textContent = reason || "";
     if (off) this.el.dataset.disabled = "true";
     else delete this.el.dataset.disabled;
+  }
+
+  /** "replay" (a simulated mission) or "poses" (a field run's stored poses): said, not acted on. */
+  setSource(source) {
+    this.el.dataset.source = source;
+    this.el.setAttribute("aria-description", SOURCE[source]);
+    this.note.hidden = source !== "poses";
   }
 
   /** The timeline's end: the mission's simulated time (grows while it is live). */

@@ -60,3 +60,46 @@ def test_0003_marks_every_existing_mission_simulated(db_url: str) -> None:
     with engine.connect() as conn:
         assert conn.scalar(text("select count(*) from missions")) == 3
     engine.dispose()
+
+
+def test_0004_adds_poses_to_an_existing_database(db_url: str) -> None:
+    """A database at 0003 with a field run upgrades with its missions kept and an empty
+    `poses` table; poses go with their mission when it is deleted; a downgrade drops them."""
+    engine = make_engine(db_url)
+    upgrade(engine, MIGRATIONS, "0003")
+    columns = "scenario_name, scenario, seed, policy, current_policy, planner, status, sim_time"
+    with engine.begin() as conn:
+        for seed, mode in enumerate(("field", "simulated")):
+            conn.execute(
+                text(
+                    f"insert into missions ({columns}, mode, created_at) values "
+                    "('reference', '{}', :seed, 'nearest', 'nearest', 'ompl', 'completed', 9.0,"
+                    " :mode, :at)"
+                ),
+                {"seed": seed, "mode": mode, "at": "2026-11-27 00:00:00"},
+            )
+    upgrade(engine, MIGRATIONS)
+    assert "poses" in inspect(engine).get_table_names()
+    with engine.begin() as conn:
+        ids = dict(conn.execute(text("select seed, id from missions")).all())
+        assert conn.scalar(text("select count(*) from poses")) == 0
+        for i, mid in enumerate((ids[0], ids[0], ids[1])):
+            conn.execute(
+                text(
+                    "insert into poses (mission_id, t, robot, x, y, heading, state, load) "
+                    "values (:m, :t, 'hauler-1', 1.0, 2.0, 0.0, 'idle', 0)"
+                ),
+                {"m": mid, "t": 5.0 * i},
+            )
+    with engine.begin() as conn:
+        if engine.dialect.name == "sqlite":
+            conn.execute(text("pragma foreign_keys=on"))
+        conn.execute(text("delete from missions where id = :m"), {"m": ids[0]})
+    with engine.connect() as conn:
+        left = conn.execute(text("select mission_id from poses")).all()
+    assert [r[0] for r in left] == [ids[1]]
+    command.downgrade(alembic_config(MIGRATIONS, engine), "0003")
+    assert "poses" not in inspect(engine).get_table_names()
+    with engine.connect() as conn:
+        assert conn.scalar(text("select count(*) from missions")) == 1
+    engine.dispose()

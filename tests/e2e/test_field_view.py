@@ -1,6 +1,7 @@
 """A field mission's live view tells the truth as a simulated one does: every auction the API
-shows closed is closed in the feed (none left "open" after the end), the timeline says it
-cannot look back at a field run instead of answering 409 and stranding the view, each robot's
+shows closed is closed in the feed (none left "open" after the end), the timeline is on and
+says a field run plays back from its stored poses (tests/e2e/test_field_playback.py scrubs
+one), each robot's
 distance travelled is measured from what mission control hears (table, chart and stored
 metrics), and the counters on completion are the final ones (docs/dashboard.md)."""
 
@@ -58,16 +59,13 @@ def _field_view(page: Page, console: ConsoleLog, start_mission: Start, api: http
     mission = start_mission(policy="nearest", seed=0, speed=paced(50.0), field=True)
     mid = mission["id"]
     open_live(page, mid)
-    # no playback of a field run: the timeline is off and says why, and a click does nothing
+    # a field run plays back from its stored poses: the timeline is on and says so
     timeline = page.locator("#timeline")
-    expect(timeline).to_have_attribute("data-disabled", "true")
-    expect(page.locator("#tl-range")).to_be_disabled()
-    expect(page.locator("#tl-play")).to_be_disabled()
-    expect(page.locator("#tl-why")).to_contain_text("field run")
-    box = page.locator("#tl-range").bounding_box()
-    assert box is not None
-    page.mouse.click(box["x"] + box["width"] * 0.3, box["y"] + box["height"] / 2)
-    expect(timeline).to_have_attribute("data-mode", "latest")
+    expect(timeline).to_have_attribute("data-source", "poses")
+    expect(timeline).not_to_have_attribute("data-disabled", "true")
+    expect(page.locator("#tl-range")).to_be_enabled()
+    expect(page.locator("#tl-play")).to_be_enabled()
+    expect(page.locator("#tl-source")).to_have_text("field: stored poses")
 
     # distances from the heartbeats: every robot that moved has a distance, and the chart
     # shows each type's sum, while the mission runs

@@ -15,8 +15,11 @@ from app.live.recorder import auction_row
 from app.live.records import auction_dict
 from engine import Mission
 from engine.scenario import reference_scenario
+from engine.team import robot_type
 from field.intake import Intake
-from field.trust import Rejected
+from field.link import Link
+from field.trust import Authority, Rejected, Sealer
+from field.wire import encode_json, event_key
 
 JUNK = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=6),
@@ -91,3 +94,95 @@ def test_a_record_of_another_auctioneer_is_refused_and_a_real_one_kept() -> None
     assert _take({"kind": "event", "t": 1.0, "event": "dug", "data": {}, "by": "y"}, "x") is None
     nan = {"kind": "event", "t": 1.0, "event": "dug", "data": {"a": [float("nan")]}, "by": "x"}
     assert _take(nan, "x") is None
+
+
+# --- poses --------------------------------------------------------------------------------
+
+POSE = {"kind": "pose", "t": 12.5, "x": 40.0, "y": 61.25, "heading": -1.5, "state": "carrying"}
+HOSTILE_POSES: list[tuple[str, dict[str, Any]]] = [
+    ("NaN", {**POSE, "x": float("nan")}),
+    ("infinity", {**POSE, "heading": float("inf")}),
+    ("huge x", {**POSE, "x": 1e300}),
+    ("huge y", {**POSE, "y": -2e6}),
+    ("negative t", {**POSE, "t": -1.0}),
+    ("NaN t", {**POSE, "t": float("nan")}),
+    ("text x", {**POSE, "x": "40"}),
+    ("bool load", {**POSE, "load": True}),
+    ("float load", {**POSE, "load": 1.5}),
+    ("huge load", {**POSE, "load": 10**9}),
+    ("negative load", {**POSE, "load": -1}),
+    ("long state", {**POSE, "state": "x" * 200}),
+    ("odd state", {**POSE, "state": "<script>"}),
+    ("list state", {**POSE, "state": ["idle"]}),
+    ("missing y", {k: v for k, v in POSE.items() if k != "y"}),
+    ("extra field", {**POSE, "robot": "hauler-1"}),
+    ("another robot", {**POSE, "by": "hauler-2"}),
+]
+
+
+class _Sample:
+    def __init__(self, key: str, payload: bytes) -> None:
+        self.key_expr, self._payload = key, payload
+
+    @property
+    def payload(self) -> _Sample:
+        return self
+
+    def to_bytes(self) -> bytes:
+        return self._payload
+
+
+def _signed_intake() -> tuple[Intake, dict[str, Sealer]]:
+    """Mission control's intake behind a real link, and sealers of its robots."""
+    authority = Authority("m1")
+    intake = Intake(Link(None, authority.control, "mission control"))  # type: ignore[arg-type]
+    who = {n: Sealer(authority.issue(n, robot_type(n))) for n in ("hauler-1", "operator")}
+    return intake, who
+
+
+def _send(intake: Intake, sealer: Sealer, data: dict[str, Any]) -> None:
+    key = event_key("m1", sealer.name)
+    intake.on_report(_Sample(key, sealer.seal(key, encode_json(data))))
+
+
+def test_a_robots_pose_is_kept_in_its_own_name() -> None:
+    intake, who = _signed_intake()
+    _send(intake, who["hauler-1"], {**POSE, "load": 1})
+    _send(intake, who["hauler-1"], {**POSE, "t": 17.5, "by": "hauler-1", "load": 0})
+    assert intake.poses == [
+        {"robot": "hauler-1", **{k: v for k, v in POSE.items() if k != "kind"}, "load": 1},
+        {"robot": "hauler-1", **{k: v for k, v in POSE.items() if k != "kind"}, "t": 17.5}
+        | {"load": 0},
+    ]
+    assert intake.malformed == 0
+
+
+@pytest.mark.parametrize(("what", "data"), HOSTILE_POSES, ids=[w for w, _ in HOSTILE_POSES])
+def test_a_hostile_pose_is_refused_and_counted(what: str, data: dict[str, Any]) -> None:
+    intake, who = _signed_intake()
+    # (NaN and infinity go out as Python's json writes them, `NaN`: not JSON, refused as
+    # malformed before the model sees them)
+    _send(intake, who["hauler-1"], {"load": 0, **data})
+    assert intake.poses == []
+    reasons = intake.rejections()["by_reason"]
+    assert sum(reasons.values()) == 1, (what, reasons)
+    assert set(reasons) <= {"invalid report", "impersonation", "malformed"}, reasons
+    if what == "another robot":
+        assert reasons == {"impersonation": 1}
+
+
+def test_the_operators_console_has_no_pose() -> None:
+    intake, who = _signed_intake()
+    _send(intake, who["operator"], {**POSE, "load": 0})
+    assert intake.poses == []
+    assert intake.rejections()["by_reason"] == {"not allowed": 1}
+
+
+@settings(max_examples=300, deadline=None)
+@given(key=st.sampled_from([*POSE, "load", "by"]), value=JUNK)
+def test_a_pose_with_one_field_spoiled_is_refused_or_storable(key: str, value: Any) -> None:
+    rec = _take({**POSE, "load": 0, key: value}, "hauler-1")
+    for p in rec.poses if rec is not None else ():
+        json.dumps(p, allow_nan=False)
+        assert p["robot"] == "hauler-1" and abs(p["x"]) <= 1e6 and abs(p["y"]) <= 1e6
+        assert type(p["load"]) is int and 0 <= p["load"] <= 64 and p["t"] >= 0

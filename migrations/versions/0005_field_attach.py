@@ -1,8 +1,8 @@
-"""field runs outlive their server: each event's source life and number there, and how to
-reach a field mission's processes again (`field_links`)
+"""field runs outlive their server: each event's and pose's source life and number there,
+and how to reach a field mission's processes again (`field_links`)
 
-Revision ID: 0004
-Revises: 0003
+Revision ID: 0005
+Revises: 0004
 Create Date: 2026-11-27
 """
 
@@ -13,8 +13,8 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from alembic import op
 
-revision: str = "0004"
-down_revision: str | None = "0003"
+revision: str = "0005"
+down_revision: str | None = "0004"
 branch_labels: str | Sequence[str] | None = None
 depends_on: str | Sequence[str] | None = None
 
@@ -26,6 +26,9 @@ def upgrade() -> None:
         batch_op.create_index(
             "ix_events_mission_source_rseq", ["mission_id", "source", "rseq"], unique=False
         )
+    with op.batch_alter_table("poses", schema=None) as batch_op:
+        batch_op.add_column(sa.Column("source", sa.String(length=80), nullable=True))
+        batch_op.add_column(sa.Column("rseq", sa.BigInteger(), nullable=True))
     op.create_table(
         "field_links",
         sa.Column("mission_id", sa.Integer(), nullable=False),
@@ -41,6 +44,9 @@ def upgrade() -> None:
 
 def downgrade() -> None:
     op.drop_table("field_links")
+    with op.batch_alter_table("poses", schema=None) as batch_op:
+        batch_op.drop_column("rseq")
+        batch_op.drop_column("source")
     with op.batch_alter_table("events", schema=None) as batch_op:
         batch_op.drop_index("ix_events_mission_source_rseq")
         batch_op.drop_column("rseq")
