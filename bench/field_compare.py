@@ -4,7 +4,7 @@ process over Zenoh, on a wall clock × K, change how long the reference mission 
     .venv/bin/python bench/field_compare.py --seeds 10 --speed 100 --policy nearest
 
 For each seed: the simulated makespan (`run_mission`, deterministic) and the makespan of one
-field mission (`field.fleet.run_fleet`: world service, twelve agent processes on this
+field mission (`field.fleet_run.run_fleet`: world service, twelve agent processes on this
 machine). Prints one line per seed and the summary docs/field.md records: the paired
 difference field - simulated (mean, standard deviation, range) and its relative size.
 """
@@ -24,7 +24,7 @@ def main() -> int:
     args = ap.parse_args()
 
     from engine import reference_scenario, run_mission
-    from field.fleet import run_fleet
+    from field.fleet_run import run_fleet
 
     scen = reference_scenario()
     diffs: list[float] = []

@@ -19,18 +19,12 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from engine.robots import OPERATOR
 from engine.scenario import Scenario
-from engine.team import robot_type, roster, start_positions
-from engine.terrain import SiteState
-from engine.world import generate_world
-from field.clock import MissionClock
+from engine.team import robot_type
 from field.drain import Drain
 from field.fleet import INJECT_WAIT_S, free_port
 from field.intake import Intake
@@ -47,6 +41,7 @@ from field.wire import (
     supervisor_key,
 )
 from field.world_process import Settings
+from field.world_view import AgentInfo, WorldView
 
 log = logging.getLogger("regolith.field.world_handle")
 
@@ -76,131 +71,6 @@ def running(pid: int) -> bool:
 
 class AttachError(RuntimeError):
     """No world process answers for this mission (it ended, or never started)."""
-
-
-@dataclass
-class AgentInfo:
-    """An agent process as the world's process last said."""
-
-    name: str
-    gen: int
-    pid: int
-    alive: bool
-    started_at: float
-    killed_at: float | None = None
-    exit: int | None = None
-
-    @classmethod
-    def of(cls, d: dict[str, Any]) -> AgentInfo:
-        return cls(
-            str(d["name"]),
-            int(d["gen"]),
-            int(d["pid"]),
-            bool(d["alive"]),
-            float(d["started_at"]),
-            d.get("killed_at"),
-            d.get("exit"),
-        )
-
-
-class _Finished:
-    def __init__(self) -> None:
-        self.triggered = False
-
-
-@dataclass
-class _Ground:
-    x: float
-    y: float
-
-
-@dataclass
-class TerrainView:
-    """The world's terrain as last shown (what `engine.views` reads of a `Terrain`)."""
-
-    sites: list[SiteState] = field(default_factory=list)
-    ground: list[_Ground] = field(default_factory=list)
-    sites_found: int = 0
-    delivered: int = 0
-    minerals_total: int = 0
-    finished_at: float | None = None
-    scanned_count: int = 0
-    cells_total: int = 0
-    finished: _Finished = field(default_factory=_Finished)
-    _picture: dict[str, Any] = field(default_factory=dict)
-
-    def show(self, view: dict[str, Any]) -> None:
-        st, pic = view["status"], view["picture"]
-        self._picture = pic
-        self.sites = [
-            SiteState(
-                s["id"],
-                s["x"],
-                s["y"],
-                s["total"],
-                s["remaining"],
-                found_at=s["found_at"],
-                worker=s["excavator"],
-            )
-            for s in pic["sites"]
-        ]
-        self.ground = [_Ground(g["x"], g["y"]) for g in pic["dropped"]]
-        self.sites_found, self.delivered = int(st["sites_found"]), int(st["delivered"])
-        self.minerals_total, self.finished_at = int(st["minerals_total"]), st["finished_at"]
-        self.scanned_count, self.cells_total = int(pic["scanned_count"]), int(pic["cells_total"])
-        self.finished.triggered = bool(st["finished"])
-
-    def picture(self) -> dict[str, Any]:
-        return dict(self._picture)
-
-    def scanned_b64(self) -> str:
-        return str(self._picture.get("scanned", ""))
-
-
-class WorldView:
-    """The world as mission control knows it: what is fixed from the scenario and seed (the
-    map, the roster, the start ring), and what the world's process last showed."""
-
-    def __init__(self, scenario: Scenario, seed: int, policy: str) -> None:
-        world_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(4)[0])
-        self.scenario = scenario
-        self.world = generate_world(scenario, world_rng)
-        self.roster = roster(scenario.team)
-        starts = start_positions(self.world, scenario.start_spread, len(self.roster))
-        self.starts = dict(zip(self.roster, starts, strict=True))
-        self.terrain = TerrainView()
-        self.policy = policy
-        self.clock = MissionClock()  # the world's, as its last answer carried it
-        self.loads: dict[str, int] = {}
-        self.refused = 0
-        self.queries = 0
-        self.late = 0  # queries the world skipped: their askers had stopped waiting
-        self.dropped: dict[str, Any] = {}  # frames the world's process dropped, as it counts
-        self.last: dict[str, Any] = {}
-
-    def show(self, view: dict[str, Any]) -> None:
-        self.terrain.show(view)
-        self.policy = str(view["policy"])
-        self.clock.adopt(view["clock"])
-        self.loads = dict(view["loads"])
-        self.refused = int(view["refusals"]["total"])
-        self.queries = int(view["queries"])
-        self.late = int(view.get("late") or 0)
-        self.dropped = dict(view.get("dropped") or {})
-        self.last = view
-
-    def now(self) -> float:
-        return self.clock.now()
-
-    def status(self) -> dict[str, Any]:
-        return dict(self.last.get("status") or {})
-
-    def minerals_in(self) -> dict[str, int]:
-        return dict(self.last.get("minerals_in") or {})
-
-    def refusals(self) -> dict[str, Any]:
-        """What the world refused its members, by reason and sender."""
-        return dict(self.last.get("refusals") or {})
 
 
 class WorldHandle:

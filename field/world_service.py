@@ -1,10 +1,11 @@
 """The world service: the field's ground truth, served to the robots over Zenoh queries.
 
-Mission control runs it. It holds the engine's own `Terrain` (the sites and their piles, the
-minerals on the ground, the scanned cells, the deliveries) on a clock of wall time × speed,
-and answers one operation per query on `regolith/<mission>/world` (docs/field.md lists
-them). A robot learns of a site only by asking what lies within its scan radius along the
-segment it just drove, or what pile lies where it stands.
+It runs in a process of its own (`field.world_process`; `regolith fleet` runs it beside mission
+control). It holds the engine's own `Terrain` (the sites and their piles, the minerals on the
+ground, the scanned cells, the deliveries) on the mission's clock (`field.clock`), and answers
+one operation per query on `regolith/<mission>/world` (docs/field.md lists them). A robot
+learns of a site only by asking what lies within its scan radius along the segment it just
+drove, or what pile lies where it stands.
 """
 
 from __future__ import annotations
@@ -47,14 +48,6 @@ CHANGES = frozenset({"deliver", "pick", "drop", "handover", "site_set", "found",
 
 class Paused(Exception):
     """The mission is paused: the world does not change (`PAUSED`)."""
-
-
-__all__ = [
-    "PAUSED",
-    "MissionClock",
-    "Paused",
-    "WorldService",
-]  # (MissionClock lives in field.clock)
 
 
 class _TerrainEnv:
@@ -316,13 +309,12 @@ class WorldService:
     def minerals_in(self) -> dict[str, int]:
         """Where every mineral is, read at one instant: they add up to the total."""
         with self._lock:
-            f = self.terrain
-            return {
-                "sites": sum(s.remaining for s in f.sites),
-                "aboard": sum(self.loads.values()),
-                "ground": len(f.ground),
-                "delivered": f.delivered,
-            }
+            return self._minerals()
+
+    def _minerals(self) -> dict[str, int]:
+        f, sites = self.terrain, sum(s.remaining for s in self.terrain.sites)
+        aboard = sum(self.loads.values())
+        return {"sites": sites, "aboard": aboard, "ground": len(f.ground), "delivered": f.delivered}
 
     def _reveal(self, name: str, s: SiteState) -> dict[str, Any]:
         """A site shown to `name`: the only ones it may report found."""
@@ -385,12 +377,7 @@ class WorldService:
             return {
                 "status": self.status(),
                 "picture": self.terrain.picture(),
-                "minerals_in": {
-                    "sites": sum(s.remaining for s in self.terrain.sites),
-                    "aboard": sum(self.loads.values()),
-                    "ground": len(self.terrain.ground),
-                    "delivered": self.terrain.delivered,
-                },
+                "minerals_in": self._minerals(),
                 "loads": dict(self.loads),
                 "policy": self.policy,
                 "clock": self.clock.state.to_dict(),

@@ -146,7 +146,7 @@ def fleet_run(
     Prints a summary (or, with --json, one JSON object, the auctions included). Exit code 0
     when the mission completed, 1 otherwise, 2 for a bad argument. On a terminal, stderr
     shows the progress (simulated time, minerals, sites) while it runs."""
-    from field.fleet import run_fleet
+    from field.fleet_run import run_fleet
 
     _exit_on_sigterm()
     try:

@@ -3,6 +3,7 @@ the intake either refuses it or keeps a record the service can store and stream.
 
 from __future__ import annotations
 
+import itertools
 import json
 from typing import Any
 
@@ -140,8 +141,13 @@ def _signed_intake() -> tuple[Intake, dict[str, Sealer]]:
     return intake, who
 
 
+_NUMBERS: dict[Sealer, itertools.count[int]] = {}
+
+
 def _send(intake: Intake, sealer: Sealer, data: dict[str, Any]) -> None:
+    """As an agent reports: numbered in its life (`field.journal`), signed, put."""
     key = event_key("m1", sealer.name)
+    data = {**data, "rseq": next(_NUMBERS.setdefault(sealer, itertools.count()))}
     intake.on_report(_Sample(key, sealer.seal(key, encode_json(data))))
 
 
@@ -149,10 +155,15 @@ def test_a_robots_pose_is_kept_in_its_own_name() -> None:
     intake, who = _signed_intake()
     _send(intake, who["hauler-1"], {**POSE, "load": 1})
     _send(intake, who["hauler-1"], {**POSE, "t": 17.5, "by": "hauler-1", "load": 0})
+    life = {"source": "hauler-1#1"}
     assert intake.poses == [
-        {"robot": "hauler-1", **{k: v for k, v in POSE.items() if k != "kind"}, "load": 1},
+        {"robot": "hauler-1", **{k: v for k, v in POSE.items() if k != "kind"}, "load": 1}
+        | life
+        | {"rseq": 0},
         {"robot": "hauler-1", **{k: v for k, v in POSE.items() if k != "kind"}, "t": 17.5}
-        | {"load": 0},
+        | {"load": 0}
+        | life
+        | {"rseq": 1},
     ]
     assert intake.malformed == 0
 

@@ -13,7 +13,7 @@ from engine.scenario import Scenario
 from engine.team import roster, start_positions
 from field import control
 from field.refusals import FieldRefusal, check_field
-from field.world_handle import WorldView
+from field.world_view import WorldView
 from tests.engine.factories import small_scenario
 from tests.field.test_control_views import StandInFleet
 
