@@ -54,9 +54,8 @@ class FieldMission(MissionViews):
         paused: bool = False,
     ) -> None:
         """A new field mission (its world's process started, journals under `folder`, its
-        clock standing from the start if `paused`), or,
-        with `handle`, one a previous server started, attached to again: its events numbered
-        on from `first_seq` (those stored)."""
+        clock standing from the start if `paused`), or, with `handle`, one a previous server
+        started, attached to again: its events numbered on from `first_seq` (those stored)."""
         self.scenario, self.seed = scenario, seed
         self.initial_policy = resolve_policy(policy)
         if handle is None:

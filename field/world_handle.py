@@ -293,7 +293,9 @@ class WorldHandle:
         state = self._must("clock", **args)
         self.world.clock.adopt(state)
         self.refresh()  # what the world shows from then on (a delivery count at a pause)
-        return float(state["t"])
+        # the time shown from now on: the world's, or this view's if it had shown a moment
+        # past it while the request was on its way (a view's time never goes back)
+        return self.world.clock.now()
 
     def set_policy(self, policy: str) -> None:
         self._must("set_policy", policy=policy)
