@@ -49,6 +49,23 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def ask_console(link: Link, task_type: str, p: tuple[float, float], task_id: str) -> str:
+    """Have a mission's operator console auction a task; its auction's id. Asked again while
+    it says "busy" (or is still starting), for `INJECT_WAIT_S`; ValueError when it refuses or
+    never answers."""
+    fields = {"task_type": task_type, "x": p[0], "y": p[1], "task_id": task_id}
+    req = InjectTask.model_validate({"v": 1, "cmd": "inject_task", **fields})
+    deadline = time.monotonic() + INJECT_WAIT_S
+    while time.monotonic() < deadline:
+        rep = link.ask(operator_key(link.mission), req.model_dump(exclude={"v"}), OPERATOR, 2.0)
+        if rep is not None and rep.get("ok"):
+            return str(rep["value"]["auction_id"])
+        if rep is not None and rep.get("error") != "busy":
+            raise ValueError(f"inject_task: refused by the operator console: {rep}")
+        time.sleep(0.1)
+    raise ValueError("inject_task: the operator console did not answer")
+
+
 @dataclass
 class Proc:
     name: str
@@ -200,19 +217,7 @@ class Fleet:
         console does not answer (not started, or gone)."""
         if self.operator is None or self.operator.popen.poll() is not None:
             raise ValueError("inject_task: this field mission has no operator console")
-        fields = {"task_type": task_type, "x": p[0], "y": p[1], "task_id": task_id}
-        req = InjectTask.model_validate({"v": 1, "cmd": "inject_task", **fields})
-        deadline = time.monotonic() + INJECT_WAIT_S
-        while time.monotonic() < deadline:  # (it may still be starting)
-            rep = self.link.ask(
-                operator_key(self.mission), req.model_dump(exclude={"v"}), OPERATOR, 2.0
-            )
-            if rep is not None and rep.get("ok"):
-                return str(rep["value"]["auction_id"])
-            if rep is not None and rep.get("error") != "busy":
-                raise ValueError(f"inject_task: refused by the operator console: {rep}")
-            time.sleep(0.1)
-        raise ValueError("inject_task: the operator console did not answer")
+        return ask_console(self.link, task_type, p, task_id)
 
     def add(self, rtype: str) -> str:
         check_type(rtype)

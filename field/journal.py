@@ -22,8 +22,6 @@ from collections import deque
 from pathlib import Path
 from typing import Any
 
-from field.trust import CONTROL, Rejected
-
 JOURNAL_ENTRIES = 200_000
 """Reports kept per life: a robot of the reference mission reports ~3,000 in a whole run."""
 PAGE_BYTES = 256 * 1024
@@ -105,13 +103,10 @@ class Journal:
 def serve(link: Any, journal: Journal, key: str, query: Any) -> None:
     """Answer mission control's read of `journal` (a query on `key`; only mission control may
     read it back: the reports went to it alone)."""
-    got = link.take_query(query, key)
+    got = link.take_control_query(query, key, "journal")
     if got is None:
         return
-    opened, req = got
-    if opened.sender != CONTROL:
-        link.opener.rejections.count(Rejected("not mission control", opened.sender, "journal"))
-        return
+    _opened, req = got
     after = (req.get("args") or {}).get("after")
     if type(after) is not int or not -1 <= after < 2**53:
         link.reply(query, key, req, {"ok": False, "error": "after: an integer >= -1"})

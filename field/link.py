@@ -17,7 +17,16 @@ from typing import Any
 
 import zenoh
 
-from field.trust import MAX_FRAME, Channel, Credential, Opened, Opener, Rejected, Sealer
+from field.trust import (
+    CONTROL,
+    MAX_FRAME,
+    Channel,
+    Credential,
+    Opened,
+    Opener,
+    Rejected,
+    Sealer,
+)
 from field.wire import decode_json, encode_json
 
 log = logging.getLogger("regolith.field.link")
@@ -128,6 +137,17 @@ class Link:
             if isinstance(until, int | float) and time.time() > until:
                 self.late += 1
                 return None
+        return got
+
+    def take_control_query(
+        self, query: Any, key: str, what: str
+    ) -> tuple[Opened, dict[str, Any]] | None:
+        """`take_query` for a queryable only mission control may ask (a journal, the world's
+        controls): anyone else's request is counted and left unanswered."""
+        got = self.take_query(query, key)
+        if got is not None and got[0].sender != CONTROL:
+            self.opener.rejections.count(Rejected("not mission control", got[0].sender, what))
+            return None
         return got
 
     def reply(self, query: Any, key: str, req: dict[str, Any], data: dict[str, Any]) -> None:

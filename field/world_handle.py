@@ -22,11 +22,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from engine.robots import OPERATOR
 from engine.scenario import Scenario
 from engine.team import robot_type
 from field.drain import Drain
-from field.fleet import INJECT_WAIT_S, free_port
+from field.fleet import ask_console, free_port
 from field.intake import Intake
 from field.link import Link
 from field.refusals import check_field
@@ -34,10 +33,8 @@ from field.transport import open_session
 from field.trust import MAX_REPORT, WORLD, Authority, Credential
 from field.wire import (
     PREFIX,
-    InjectTask,
     journal_key,
     messages_selector,
-    operator_key,
     supervisor_key,
 )
 from field.world_process import Settings
@@ -306,19 +303,7 @@ class WorldHandle:
         console does not answer)."""
         if self.operator is None or not self.operator.alive:
             raise ValueError("inject_task: this field mission has no operator console")
-        fields = {"task_type": task_type, "x": p[0], "y": p[1], "task_id": task_id}
-        req = InjectTask.model_validate({"v": 1, "cmd": "inject_task", **fields})
-        deadline = time.monotonic() + INJECT_WAIT_S
-        while time.monotonic() < deadline:
-            rep = self.link.ask(
-                operator_key(self.mission), req.model_dump(exclude={"v"}), OPERATOR, 2.0
-            )
-            if rep is not None and rep.get("ok"):
-                return str(rep["value"]["auction_id"])
-            if rep is not None and rep.get("error") != "busy":
-                raise ValueError(f"inject_task: refused by the operator console: {rep}")
-            time.sleep(0.1)
-        raise ValueError("inject_task: the operator console did not answer")
+        return ask_console(self.link, task_type, p, task_id)
 
     def close(self, stop: bool = True) -> None:
         """Read back what is left, then (with `stop`) end the world's process and its agents;

@@ -32,7 +32,7 @@ from engine.scenario import Scenario
 from field.drain import Drain
 from field.fleet import Fleet, Proc
 from field.journal import read_file
-from field.trust import CONTROL, Authority, Rejected
+from field.trust import Authority
 from field.wire import supervisor_key
 
 log = logging.getLogger("regolith.field.world_process")
@@ -135,13 +135,10 @@ class WorldProcess:
 
     def _on_request(self, query: Any) -> None:
         link, key = self.fleet.link, supervisor_key(self.settings.mission)
-        got = link.take_query(query, key)
+        got = link.take_control_query(query, key, "the world's controls")
         if got is None:
             return
-        opened, req = got
-        if opened.sender != CONTROL:
-            link.opener.rejections.count(Rejected("not mission control", opened.sender, "agents"))
-            return
+        _opened, req = got
         self.heard = time.monotonic()
         args = req.get("args") or {}
         try:

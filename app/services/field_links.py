@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from sqlalchemy import func, select, update
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, selectinload
 
-from app.db.models import Action, Auction, Award, Bid, Event, FieldLink, Mission, Pose
+from app.db.models import Action, Auction, Event, FieldLink, Mission, Pose
 from app.live.recorder import Recorder, Stored
+from app.services.field_playback import auction_record
 from app.services.store import LIVE_STATUSES, Store, stored_counts
 from engine import Scenario
 
@@ -95,36 +96,11 @@ def _attachment(session: Session, mission_id: int, gen: int) -> Attachment:
     stored = stored_counts(session, mission_id)
     stored.events = 0  # the rebuilt log holds only what comes next (numbered on from `last`)
     att = Attachment(row, link, gen, 0 if last is None else int(last) + 1, taken, stored)
-    bids: dict[str, list[dict[str, Any]]] = {}
-    for b in session.scalars(select(Bid).where(Bid.mission_id == mission_id).order_by(Bid.idx)):
-        bids.setdefault(b.auction_id, []).append(
-            {"t": b.t, "bidder": b.bidder, "utility": b.utility, "round": b.round}
-        )
-    awards: dict[str, list[dict[str, Any]]] = {}
-    for w in session.scalars(
-        select(Award).where(Award.mission_id == mission_id).order_by(Award.idx)
+    auctions = select(Auction).where(Auction.mission_id == mission_id)
+    for a in session.scalars(
+        auctions.options(selectinload(Auction.bids), selectinload(Auction.awards))
     ):
-        awards.setdefault(w.auction_id, []).append(
-            {"t": w.t, "winner": w.winner, "outcome": w.outcome}
-        )
-    for a in session.scalars(select(Auction).where(Auction.mission_id == mission_id)):
-        att.auctions[a.auction_id] = {
-            "id": a.auction_id,
-            "kind": a.kind,
-            "auctioneer": a.auctioneer,
-            "task_type": a.task_type,
-            "task_id": a.task_id,
-            "location": [a.location_x, a.location_y],
-            "status": a.status,
-            "opened_at": a.opened_at,
-            "closed_at": a.closed_at,
-            "allocated_to": a.allocated_to,
-            "reannouncements": a.reannouncements,
-            "reauction_of": a.reauction_of,
-            "policy": a.policy,
-            "bids": bids.get(a.auction_id, []),
-            "awards": awards.get(a.auction_id, []),
-        }
+        att.auctions[a.auction_id] = auction_record(a)
     att.actions = [
         {"t": x.t, "kind": x.kind, "args": dict(x.args or {})}
         for x in session.scalars(

@@ -112,12 +112,13 @@ def read_stored(session: Session, mission_id: int, t: float) -> Stored:
         .order_by(Auction.opened_at, Auction.auction_id)
     )
     seen = 0 if last is None else last + 1
-    records = [_record(a) for a in rows]
+    records = [auction_record(a) for a in rows]
     return Stored(poses, after, events, seen, int(session.scalar(again) or 0), records)
 
 
-def _record(a: Auction) -> dict[str, Any]:
-    """A stored auction as the engine's `AuctionRecord.to_dict()` had it."""
+def auction_record(a: Auction) -> dict[str, Any]:
+    """A stored auction (its bids and awards loaded) as the engine's `AuctionRecord.to_dict()`
+    had it: what a field run is played back and taken back from."""
     return {
         "id": a.auction_id,
         "kind": a.kind,
