@@ -117,21 +117,26 @@ class Fleet:
             else Link(self.session, self.authority.control, f"mission {self.mission}")
         )
         self.intake = Intake(self.link)
-        self._subs = [
+        self._subs = [  # (heartbeats: who is alive, and where)
             Drain(
                 self.session.declare_subscriber,
                 messages_selector(self.mission),
                 self.intake.on_message,
                 "intake messages",
-            ),
-            Drain(  # events and auction records: none may be lost
-                self.session.declare_subscriber,
-                f"{PREFIX}/{self.mission}/event/*",
-                self.intake.on_report,
-                "intake reports",
-                lossless=True,
-            ),
-        ][: 1 if moon else 2]
+            )
+        ]
+        if not moon:  # the world's own process takes no reports: mission control does
+            # (declared there, this lossless channel, fed faster than it was read, made the
+            # world's network threads wait: no query answered, the mission stalled)
+            self._subs.append(
+                Drain(  # events and auction records: none may be lost
+                    self.session.declare_subscriber,
+                    f"{PREFIX}/{self.mission}/event/*",
+                    self.intake.on_report,
+                    "intake reports",
+                    lossless=True,
+                )
+            )
         self.world = WorldService(
             self.world_link,
             scenario,
