@@ -44,8 +44,8 @@ def no_resume(mission_id: int) -> str:
     """Why an interrupted field mission is not resumed: a resume rebuilds a mission by
     replaying the engine, and a field run is not a function of its determinants."""
     return (
-        f"mission {mission_id} is a field mission: its robots were processes of the server "
-        "that stopped and are gone, and a field run cannot be rebuilt by replay (that would "
-        "continue it as a simulated one); it stays interrupted with its records kept: start "
-        "a new field mission"
+        f"mission {mission_id} is a field mission: its world service and robots are gone (a "
+        "server that starts takes back those still running), and a field run cannot be "
+        "rebuilt by replay (that would continue it as a simulated one); it stays interrupted "
+        "with its records kept: start a new field mission"
     )
