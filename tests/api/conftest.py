@@ -29,6 +29,7 @@ from websockets.sync.client import ClientConnection, connect
 
 from app.main import create_app
 from app.settings import Settings
+from tests.field_worlds import end_field_worlds
 from tests.pgcluster import PgCluster, server_bin
 from tests.progress import REQUEST_S, STALL_S, START_S, wait_progress
 
@@ -68,15 +69,19 @@ class LiveServer:
             time.sleep(0.02)
         return self
 
-    def stop(self) -> None:
+    def stop(self, end_field: bool = True) -> None:
+        """Stop the server; and, unless `end_field` is False (a restart), end the field
+        missions it leaves mining (`tests/field_worlds.py`)."""
         if self._server is not None and self._thread is not None:
             self._server.should_exit = True
             self._thread.join(timeout=30)
             assert not self._thread.is_alive(), "server did not stop"
         self._server = self._thread = None
+        if end_field:
+            end_field_worlds(self.settings.database_url)
 
     def restart(self) -> None:
-        self.stop()
+        self.stop(end_field=False)
         self.start()
 
     @property

@@ -21,6 +21,7 @@ from typing import Any
 import httpx
 import pytest
 
+from tests.field_worlds import end_field_worlds
 from tests.progress import REQUEST_S, START_S
 
 CHROMIUM = Path(os.environ.get("REGOLITH_CHROMIUM", "/usr/bin/chromium"))  # Debian's
@@ -160,6 +161,7 @@ def running_server(factory: pytest.TempPathFactory, name: str) -> Iterator[Serve
     srv = Server(factory.mktemp(f"regolith-{name}")).start()
     yield srv
     srv.stop()
+    end_field_worlds(f"sqlite:///{srv.data_dir / 'regolith.db'}")  # (a stop leaves them)
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(srv.log, ARTIFACTS / f"{name}.log")
 
