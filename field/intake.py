@@ -31,8 +31,10 @@ Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_.\-]{1,64}$")]
 Time = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-1e6, le=1e6)]
 Short = Annotated[str, Field(min_length=1, max_length=128)]
-AHEAD_MAX = 10_000
-"""Reports of one life held while an earlier one is missing (then read from its journal)."""
+AHEAD_MAX = 64
+"""Reports of one life held while an earlier one is missing, and how far past it (further
+ones are read back from its journal once the gap is filled). Small: a report may be 1 MiB,
+and a robot with a stolen credential must not fill the server's memory with held ones."""
 
 
 class _Strict(BaseModel):
@@ -186,7 +188,7 @@ class Intake:
                 return
             ahead = self._ahead.setdefault(src, {})
             if rseq > nxt:
-                if len(ahead) < AHEAD_MAX:  # (past it: read back from the journal later)
+                if rseq - nxt <= AHEAD_MAX and len(ahead) < AHEAD_MAX:
                     ahead[rseq] = data
                 return
             self._take_checked(sender, src, data, role)

@@ -144,3 +144,17 @@ def test_the_authority_kept_with_the_database_speaks_newer() -> None:
         assert exc.reason == "stale"
     else:
         raise AssertionError("the stopped server's certificate still counts")
+
+
+def test_a_hostile_life_cannot_make_mission_control_hold_much() -> None:
+    """Reports far ahead of the missing one, or more than `AHEAD_MAX` of them, are not held
+    (they are read back from the journal once the gap is filled): a robot with a stolen
+    credential cannot fill the server's memory with 1 MiB reports."""
+    from field.intake import AHEAD_MAX
+
+    rec = intake()
+    rec.offer("hauler-1", 1, {**event(0), "rseq": 10**9})
+    for n in range(1, 10 * AHEAD_MAX):
+        rec.offer("hauler-1", 1, {**event(n), "rseq": n})
+    assert rec.events == [] and len(rec._ahead["hauler-1#1"]) == AHEAD_MAX
+    assert set(rec._ahead["hauler-1#1"]) == set(range(1, AHEAD_MAX + 1))
