@@ -90,6 +90,7 @@ def one_mission(run: Run) -> dict[str, Any]:
     import pstats
 
     from engine import Mission, reference_scenario
+    from engine.collector import collector_paused
     from engine.scenario import Protocol
 
     solves = _time_solves()  # a fresh child process per mission: patched only here
@@ -110,9 +111,10 @@ def one_mission(run: Run) -> dict[str, Any]:
     # headless, as `run_mission` and `regolith run`: events streamed, not kept
     m = Mission(scenario, seed, policy, planner, keep_events=False)  # type: ignore[arg-type]
     until = 0.0
-    while not m.done and time.perf_counter() - t0 < budget and until < stop:
-        until = min(until + CHUNK_S, stop)
-        m.advance(until)
+    with collector_paused():  # as `run_mission` and `regolith run` (engine/collector.py)
+        while not m.done and time.perf_counter() - t0 < budget and until < stop:
+            until = min(until + CHUNK_S, stop)
+            m.advance(until)
     if prof is not None:
         prof.disable()
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0

@@ -16,6 +16,7 @@ import numpy as np
 import simpy
 
 from engine.auction_rules import AuctionRecord
+from engine.collector import collector_paused
 from engine.context import MissionContext
 from engine.errors import CommandRejected, UnknownRobotError
 from engine.events import Event
@@ -331,9 +332,10 @@ def run_mission(
     not kept: nobody reads them)."""
     m = Mission(scenario, seed, policy, planner, keep_events=False)
     try:
-        for action in sorted(actions, key=lambda a: float(a["t"])):
-            m.apply(action)
-        return m.run()
+        with collector_paused():
+            for action in sorted(actions, key=lambda a: float(a["t"])):
+                m.apply(action)
+            return m.run()
     finally:
         m.close()
 

@@ -16,6 +16,7 @@ from collections.abc import Iterable
 from typing import Any, TextIO
 
 from engine import Mission
+from engine.collector import collector_paused
 from engine.mission import PlannerKind
 from engine.scenario import Scenario
 
@@ -87,10 +88,11 @@ def run_with_progress(
     m = Mission(scenario, seed, policy, planner, keep_events=False)
     try:
         try:
-            for action in sorted(actions, key=lambda a: float(a["t"])):
-                _advance(m, float(action["t"]), line)
-                m.apply(action)
-            _advance(m, float("inf"), line)
+            with collector_paused():
+                for action in sorted(actions, key=lambda a: float(a["t"])):
+                    _advance(m, float(action["t"]), line)
+                    m.apply(action)
+                _advance(m, float("inf"), line)
         finally:
             line.clear()
         return m.metrics()
