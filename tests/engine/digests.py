@@ -40,14 +40,28 @@ class Case:
     planner: str = "ompl"
     bus: str = "ideal"  # ideal | lossy | late
     fail: bool = False
+    ops: bool = False  # OPERATIONS: scouts and excavators fail and return, robots join
 
     @property
     def key(self) -> str:
         return (
             f"{self.policy}/{self.busy_bid}/x{self.scale}/{self.planner}/{self.bus}"
-            f"{'/fail' if self.fail else ''}"
+            f"{'/fail' if self.fail else ''}{'/ops' if self.ops else ''}"
         )
 
+
+OPERATIONS: list[tuple[float, str, tuple[object, ...]]] = [
+    (300.0, "disable_robot", ("scout-1", "abrupt")),
+    (400.0, "add_robot", ("scout", None)),
+    (600.0, "disable_robot", ("excavator-2", "abrupt")),
+    (700.0, "add_robot", ("hauler", None)),
+    (800.0, "disable_robot", ("scout-2", "graceful")),
+    (900.0, "enable_robot", ("scout-1",)),
+    (1000.0, "enable_robot", ("excavator-2",)),
+    (1100.0, "add_robot", ("excavator", None)),
+]
+"""The operator's actions of the `ops` cases: scouts hand over and take back cells, failed
+auctioneers' tasks are adopted, newcomers learn the auctions under way."""
 
 BUSES = {
     "ideal": {},
@@ -71,6 +85,8 @@ def cases(slow: bool = True) -> list[Case]:
         for bus in ("lossy", "late"):
             out.append(Case(policy, bus=bus))
             out.append(Case(policy, bus=bus, fail=True))
+        for bus in ("ideal", "lossy"):
+            out.append(Case(policy, "silent", 3, bus=bus, ops=True))
     for policy in ("fcfs", "lookahead"):
         out.append(Case(policy, "silent", 3, planner="exact"))
         out.append(Case(policy, "silent", 10))
@@ -97,6 +113,10 @@ def digest(case: Case) -> str:
         m.advance(FAIL_AT_S)
         if not m.done:
             m.disable_robot("hauler-1", "abrupt")
+    for t, action, args in OPERATIONS if case.ops else ():
+        m.advance(t)
+        if not m.done:
+            getattr(m, action)(*args)
     m.run()
     h = hashlib.sha256()
     for e in m.events:
