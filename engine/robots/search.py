@@ -45,8 +45,12 @@ class Search:
         self.name = robot.name
         self.ctx = robot.ctx
         self.env = robot.ctx.env
-        # every scout's plan: common knowledge at the start, then updated by Takeover messages
-        self.routes = {k: list(v) for k, v in routes.items()}
+        # every scout's plan: common knowledge at the start, then updated by Takeover messages.
+        # No route list is ever changed in place (a change makes a new list), so every scout
+        # can share the lists it starts with: hundreds of scouts each copying every scout's
+        # route were 130 MB at scale 100.
+        self.routes = dict(routes)
+        self._team_routes = routes  # mine is kept there too, for scouts that join later
         self.route: list[int] = routes.setdefault(self.name, [])
         self.cursor = 0
         self.known_tasks: set[str] = set()  # sites found, mine and my peers'
@@ -83,26 +87,32 @@ class Search:
         hb = self.ctx.liveness.last_heartbeat(self.name, peer)
         done = hb.progress if hb is not None else 0
         cells = self.routes.get(peer, [])[done:]
-        self.route.extend(cells)
+        self._set_route(self.route + cells)
         self.robot.wake()
         return cells
 
+    def _set_route(self, cells: list[int]) -> None:
+        """My route is now `cells` (a new list: the old one may be shared)."""
+        self.route = self._team_routes[self.name] = cells
+
     def on_takeover_heard(self, msg: Takeover) -> None:
-        theirs = self.routes.setdefault(msg.sender, [])
+        theirs = self.routes.get(msg.sender, [])
         known = set(theirs)
-        theirs.extend(c for c in msg.cells if c not in known)  # said again on a return
+        # said again on a return
+        self.routes[msg.sender] = theirs + [c for c in msg.cells if c not in known]
 
     def on_adoption_undone(self, failed: str) -> None:
         theirs = self.routes.get(failed, [])
         hb = self.ctx.liveness.last_heartbeat(self.name, failed)
         cells = set(theirs[hb.progress if hb is not None else 0 :])
         keep = self.route[: self.cursor] + [c for c in self.route[self.cursor :] if c not in cells]
-        self.route[:] = keep
+        self._set_route(keep)
 
     def on_cells_taken(self, cells: tuple[int, ...]) -> None:
         """A peer scans these of my remaining cells now (it adopted them while I was down)."""
         taken = set(cells)
-        self.route[self.cursor :] = [c for c in self.route[self.cursor :] if c not in taken]
+        route = self.route
+        self._set_route(route[: self.cursor] + [c for c in route[self.cursor :] if c not in taken])
 
     # --- sharing the search with a scout that has none -------------------------------------
     def on_hello_heard(self, msg: Hello) -> None:
@@ -130,11 +140,11 @@ class Search:
             if theirs > reported or (theirs == reported and name < self.name):
                 return
         cells = self.route[-(mine // 2) :]
-        del self.route[-(mine // 2) :]
+        self._set_route(self.route[: -(mine // 2)])
         self._handoffs += 1
         hid = f"{self.name}>{to}#{self._handoffs}"
         self._given[hid] = (to, cells, float(self.env.now))
-        self.routes.setdefault(to, []).extend(cells)
+        self.routes[to] = self.routes.get(to, []) + cells
         self.ctx.observer.emit("handoff", by=self.name, to=to, cells=len(cells), handoff_id=hid)
         self.ctx.bus.publish(Handoff(sender=self.name, to=to, cells=tuple(cells), handoff_id=hid))
 
@@ -142,13 +152,13 @@ class Search:
         if msg.to == self.name:
             if msg.handoff_id not in self._received:
                 self._received.append(msg.handoff_id)
-                self.route.extend(msg.cells)
+                self._set_route(self.route + list(msg.cells))
                 self.robot.wake()
             return
         moved = set(msg.cells)
         donor = self.routes.get(msg.sender, [])
         self.routes[msg.sender] = [c for c in donor if c not in moved]
-        self.routes.setdefault(msg.to, []).extend(msg.cells)
+        self.routes[msg.to] = self.routes.get(msg.to, []) + list(msg.cells)
 
     def check_handoffs(self) -> None:
         """Cells given away and not confirmed by the receiver's heartbeat in time are scanned
@@ -161,6 +171,6 @@ class Search:
                 del self._given[hid]  # confirmed: the cells are theirs
             elif to in down or self.env.now - t > 3 * proto.heartbeat_s:
                 del self._given[hid]
-                self.route.extend(cells)
+                self._set_route(self.route + cells)
                 self.ctx.observer.emit("handoff_taken_back", by=self.name, to=to, handoff_id=hid)
                 self.robot.wake()
