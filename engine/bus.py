@@ -13,7 +13,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from engine.liveness import Liveness
-from engine.messages import Announce, Heartbeat, Message
+from engine.messages import Announce, Close, Heartbeat, Message
+from engine.round_board import RoundBoard
 from engine.scenario import BusConfig
 
 Handler = Callable[[Message], None]
@@ -22,6 +23,9 @@ FirstLook = Callable[[Announce], bool]
 
 
 class Bus(Protocol):
+    board: RoundBoard | None
+    """The ideal bus's board of auction rounds (engine/round_board.py); None elsewhere."""
+
     def subscribe(
         self,
         name: str,
@@ -36,6 +40,10 @@ class Bus(Protocol):
 
 class EmbeddedBus:
     """In-process broadcast. Each receiver independently may lose or delay a message."""
+
+    rounds_on_board = True
+    """On the ideal bus, a later round reaches only the robots it may change something for
+    (engine/round_board.py); False delivers every round to every robot of its audience."""
 
     def __init__(
         self,
@@ -55,10 +63,12 @@ class EmbeddedBus:
         self._hears: dict[str, frozenset[str] | None] = {}
         self._first_looks: dict[str, FirstLook] = {}
         self._audiences: dict[tuple[str, str], list[tuple[str, Handler]]] = {}
+        self._audience_names: dict[tuple[str, str], tuple[list[str], frozenset[str]]] = {}
         self._everyone: list[tuple[str, Handler]] = []
         self.published = 0
         self.lost = 0
         self._ideal = config.loss == 0.0 and config.latency_s == 0.0 and config.jitter_s == 0.0
+        self.board = RoundBoard() if self._ideal and self.rounds_on_board else None
 
     def subscribe(
         self,
@@ -84,6 +94,7 @@ class EmbeddedBus:
         else:
             self._first_looks[name] = first_look
         self._audiences.clear()
+        self._audience_names.clear()
         self._everyone = list(self._subscribers.items())  # a new list: never changed in place
 
     def _audience(self, msg: Announce) -> list[tuple[str, Handler]]:
@@ -147,6 +158,9 @@ class EmbeddedBus:
             return
         sender = msg.sender
         if isinstance(msg, Announce):
+            if self.board is not None:
+                self._announce_on_board(msg, self.board)
+                return
             # round 0 is an auction's first announcement (or its repetition for a newcomer):
             # news to nearly every receiver, so a first look would only say so
             looks = self._first_looks if msg.round else {}
@@ -159,6 +173,28 @@ class EmbeddedBus:
         for name, handler in self._everyone_now():
             if name != sender:
                 handler(msg)
+        if isinstance(msg, Close) and self.board is not None:
+            self.board.closed(msg.auction_id)
+
+    def _announce_on_board(self, msg: Announce, board: RoundBoard) -> None:
+        """A later round goes to the robots it may change something for (the board notes it
+        for the rest); any other announcement to its whole audience."""
+        subscribers, looks = self._subscribers, self._first_looks if msg.round else {}
+
+        def visit(name: str) -> None:
+            look = looks.get(name)
+            if look is None or not look(msg):
+                subscribers[name](msg)
+
+        key = (msg.task_type, self._rtypes.get(msg.sender, ""))
+        names = self._audience_names.get(key)
+        if names is None:
+            listed = [n for n, _ in self._audience(msg)]
+            names = self._audience_names[key] = (listed, frozenset(listed))
+        if board.sparse(msg):
+            board.deliver_sparse(msg, names[1], visit)
+        else:
+            board.deliver_all(msg, [n for n in names[0] if n != msg.sender], visit)
 
     def _publish_heartbeat(self, hb: Heartbeat) -> None:
         board, cfg = self._liveness, self._cfg

@@ -228,6 +228,8 @@ class Mission(SimulatedViews):
         self._record("set_policy", policy=name)
         old = self.ctx.policy.name
         self.ctx.policy = self._make_policy(name)
+        if self.ctx.bus.board is not None:
+            self.ctx.bus.board.stir_all()  # every bidder's quiet was under the old policy
         self.ctx.bus.publish(PolicyChange(sender=OPERATOR, policy=name))
         self.ctx.observer.emit("policy_changed", old=old, new=name)
         for r in self._robots():

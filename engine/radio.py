@@ -211,6 +211,7 @@ class RangedBus(EmbeddedBus):
         super().__init__(*args)
         self.net = net
         self._ideal = False
+        self.board = None  # robots out of reach hear nothing: every copy goes to its robot
 
     def publish(self, msg: Message) -> None:
         self.published += 1

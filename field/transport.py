@@ -199,6 +199,8 @@ def open_message(link: Link, key: str, payload: bytes) -> Message | None:
 class ZenohBus:
     """The engine's `Bus` over Zenoh, for one robot (the agent's)."""
 
+    board = None  # each copy really arrives on its own: no board of rounds (the ideal bus's)
+
     def __init__(
         self,
         link: Link,

@@ -38,9 +38,10 @@ from engine.policies import coalition_partner
 from engine.robots import standby
 from engine.robots.charging import Charging
 from engine.robots.core import Assignment
-from engine.robots.hearing import HANDLERS, first_look
+from engine.robots.hearing import HANDLERS, first_look, only_notes
 from engine.robots.mobility import Mobility, Motion
 from engine.robots.recovery import Recovery
+from engine.round_board import Rounds
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -84,8 +85,10 @@ class Robot:
         self.life_proc: Any = None
         self.peers = {name: self.rtype}  # name -> type, from the roster, Hello and heartbeats
         # latest round heard of every announced auction: where my knowledge of one lives
-        # (`_on_announce`; on the ideal bus a re-announcement is noted by `first_look`)
-        self.rounds: dict[str, int] = {}
+        # (`_on_announce`; on the ideal bus a re-announcement is noted by `first_look`, or
+        # for every robot it need not visit, by the bus's board of rounds)
+        self._board = ctx.bus.board
+        self.rounds = Rounds(name, self._board)
         self.recovery = Recovery(self)
         self.house = _house_for(self)
         self.bidder: Bidder | None = None  # a robot type that bids sets its own
@@ -93,6 +96,8 @@ class Robot:
         self.charging: Charging | None = None if self.battery is None else Charging(self)
         ctx.liveness.add(name)
         ctx.bus.subscribe(name, self.on_message, self.rtype, self.hears, self.first_look)
+        if self._board is not None:
+            self._board.join(name, self.rtype, self.hears, self.rounds, self.only_notes)
 
     # --- what the parts hold, as the rest of the engine reads it ---------------------------
     @property
@@ -231,6 +236,7 @@ class Robot:
                 continue
             if self.queue:
                 self.current = self.queue.popleft()
+                self.tasks_changed()
                 yield from self.work(self.current)
             else:
                 yield from self.when_free()
@@ -265,10 +271,27 @@ class Robot:
 
     first_look = first_look
     """The ideal bus's shortcut for a re-announcement (`engine.robots.hearing.first_look`)."""
+    only_notes = only_notes
+    """The same look without its effect (asked by the board of rounds when checking)."""
+
+    def tasks_changed(self) -> None:
+        """What I hold (current and queued) changed: the board of rounds keeps who holds
+        which task, and whether I may have room to bid again."""
+        if self._board is not None:
+            cur, held = self.current, {a.task_id for a in self.queue}
+            if cur is not None:
+                held.add(cur.task_id)
+            self._board.held(self.name, frozenset(held))
+
+    def stir(self) -> None:
+        """Something my bidding reads changed outside the bidder (my battery)."""
+        if self._board is not None:
+            self._board.stir(self.name)
 
     # --- tasks --------------------------------------------------------------------------
     def assign(self, a: Assignment) -> None:
         self.queue.append(a)
+        self.tasks_changed()
         self.ctx.observer.emit(
             "task_started",
             robot=self.name,
@@ -280,10 +303,13 @@ class Robot:
 
     def finish(self, a: Assignment, outcome: Literal["done", "void", "released"] = "done") -> None:
         self.current = None
+        self.tasks_changed()
         if outcome != "released":  # a released task is not done: its watcher offers it again
             self.recovery.done_ids.append(a.task_id)
         if outcome == "done" or (outcome == "void" and a.task_type == "transport"):
             self.recovery.completed.add(a.task_id)  # final: no one need ever carry this again
+            if self._board is not None:
+                self._board.finished(self.name, a.task_id)
         self.ctx.observer.emit("task_ended", robot=self.name, task_id=a.task_id, outcome=outcome)
         self.ctx.bus.publish(
             TaskDone(sender=self.name, auction_id=a.auction_id, task_id=a.task_id, outcome=outcome)
@@ -306,6 +332,7 @@ class Robot:
         self.drop_loads()
         self.current = None
         self.queue.clear()
+        self.tasks_changed()
 
     def disable(self) -> None:
         """Graceful: take nothing new, finish the current hand-over, then say goodbye."""
@@ -334,7 +361,8 @@ class Robot:
         self.state = "idle"
         self.current = None
         self.queue.clear()
-        self.rounds = {}
+        self.tasks_changed()
+        self.rounds.clear()
         if self.bidder is not None:
             self.bidder.reset()
         recovery = self.recovery
@@ -356,6 +384,7 @@ class Robot:
     def on_revoked(self) -> None:
         """The current task was revoked mid-way: tidy up and look again."""
         self.current = None
+        self.tasks_changed()
         self.consider_bids()
 
     def on_close_heard(self, msg: Close) -> None:

@@ -21,6 +21,7 @@ from engine.geometry import Point
 from engine.messages import Ack, Award, Bid, Heartbeat, TaskType
 from engine.policies import PendingAward, Policy
 from engine.robots.pricing import Pricing
+from engine.round_board import Rounds
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -46,7 +47,7 @@ class BiddingRobot(Protocol):
     charging: Charging | None
     current: Assignment | None
     queue: deque[Assignment]
-    rounds: dict[str, int]
+    rounds: Rounds
 
     @property
     def capability(self) -> TaskType | None: ...
@@ -76,7 +77,16 @@ class Bidder(Pricing):
         protocol = robot.ctx.scenario.protocol
         self._every_round = protocol.busy_bid == "every_round"
         self._silent_when_busy = protocol.busy_bid == "silent"
+        # the ideal bus's board of rounds visits me on a re-announcement only while I may not
+        # be quiet (`stays_quiet`): whatever can end my quiet stirs me there (`_stir`)
+        self._board = robot.ctx.bus.board
         self.reset()
+        if self._board is not None:
+            self._board.bidder(self.name, self)
+
+    def _stir(self) -> None:
+        if self._board is not None:
+            self._board.stir(self.name)
 
     def reset(self) -> None:
         """Forget everything heard (a new life after a failure)."""
@@ -90,6 +100,7 @@ class Bidder(Pricing):
         self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
         self.reserved: OpenAuction | None = None
         self.pending_awards: list[PendingAward] = []
+        self._stir()
 
     # --- what I know of the auctions I could serve ---------------------------------------
     def note_auction(self, info: OpenAuction) -> None:
@@ -103,12 +114,13 @@ class Bidder(Pricing):
         order = order.copy()  # a new list: a caller may still hold the old one
         bisect.insort(order, info, key=_OPENING)
         self._in_order = order
+        self._stir()
         prev = self.my_bids.get(info.auction_id)
         if prev is None or prev[1] != -math.inf:
             self._unrefused.add(info.auction_id)
 
     def forget_auction(self, auction_id: str) -> OpenAuction | None:
-        self.robot.rounds.pop(auction_id, None)
+        self.robot.rounds.forget(auction_id)
         info = self.biddable.pop(auction_id, None)
         order = self._in_order
         if info is None or order is None or info.auctioneer in self.robot.down:
@@ -116,6 +128,7 @@ class Bidder(Pricing):
         order = order.copy()
         del order[bisect.bisect_left(order, info.order, key=_OPENING)]  # openings are unique
         self._in_order = order
+        self._stir()
         self._unrefused.discard(auction_id)
         return info
 
@@ -138,12 +151,14 @@ class Bidder(Pricing):
     def auctioneers_changed(self) -> None:
         """A peer was found down or came back: its auctions count again, or no more."""
         self._in_order = None
+        self._stir()
 
     def closed(self, auction_id: str) -> OpenAuction | None:
         """The auction closed (its Close): forgotten, with my bid in it."""
         info = self.forget_auction(auction_id)
         if self.my_bids.pop(auction_id, None) is not None:
             self._quiet_on = None
+            self._stir()
         return info
 
     def missed_closes(self) -> None:
@@ -166,7 +181,7 @@ class Bidder(Pricing):
             if info.auctioneer == peer:
                 self.forget_auction(aid)
         if self.reserved is not None and self.reserved.auctioneer == peer:
-            self.reserved = None
+            self.let_go()
 
     # --- awards -------------------------------------------------------------------------
     def on_award(self, msg: Award) -> None:
@@ -229,8 +244,13 @@ class Bidder(Pricing):
         except simpy.Interrupt:
             return
         if self.reserved is a:
-            self.reserved = None
+            self.let_go()
             self.consider_bids()
+
+    def let_go(self) -> None:
+        """My reservation ends (confirmed, lost or unconfirmed in time): room again."""
+        self.reserved = None
+        self._stir()
 
     # --- room for more ------------------------------------------------------------------
     def busy(self) -> bool:
@@ -335,6 +355,8 @@ class Bidder(Pricing):
         alone, asking again before either changes gives the same nothing."""
         if policy.targets_from_list:
             self._quiet_on, self._quiet_policy = auctions, policy
+            if self._board is not None:
+                self._board.settle(self.name)
 
     def _refused_all(self) -> bool:
         """Have I bid -inf in every open auction I can serve? `_unrefused` answers at once: it

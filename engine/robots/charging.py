@@ -35,6 +35,7 @@ class ChargingRobot(Powered, Protocol):
     def state(self) -> str: ...
     @state.setter
     def state(self, value: str) -> None: ...
+    def stir(self) -> None: ...
 
     @property
     def bidder(self) -> _Rebidder | None: ...
@@ -63,6 +64,7 @@ class Charging:
         if not bat.must_charge and robot.queue:
             nxt = robot.queue[0]
             bat.must_charge = not energy.can_start(robot, nxt.task_type, nxt.location)
+            self.robot.stir()
         return bat.must_charge
 
     def recharge(self) -> Any:
@@ -87,6 +89,7 @@ class Charging:
             bat.settle(float(self.env.now))
             bat.level = bat.capacity
             bat.must_charge = False
+            self.robot.stir()
             energy.charges += 1
             robot.state = "idle"
             self.ctx.observer.emit("charged", robot=robot.name)
@@ -104,6 +107,7 @@ class Charging:
         if energy.can_drive(robot, length, goal) or bat.level_at(self.env.now) >= bat.capacity:
             return True
         bat.must_charge = True
+        self.robot.stir()
         return False
 
     def allows(self, task_type: str, where: Point) -> bool:
@@ -115,6 +119,7 @@ class Charging:
         assert bat is not None
         if not bat.must_charge and bat.level_at(float(self.env.now)) < bat.capacity:
             bat.must_charge = True  # (full and still out of reach: charging would not help)
+            self.robot.stir()
             self.robot.wake()
         return False
 
@@ -126,4 +131,5 @@ class Charging:
             return True
         assert self.robot.battery is not None
         self.robot.battery.must_charge = True
+        self.robot.stir()
         return False

@@ -44,6 +44,7 @@ class TakingRobot(Protocol):
     @property
     def pos(self) -> Point: ...
     def wake(self) -> None: ...
+    def tasks_changed(self) -> None: ...
 
 
 class Taking:
@@ -108,5 +109,6 @@ class Taking:
             r.current = Assignment(
                 f"{giver.name}/coalition", giver.name, "transport", task_id, giver.pos
             )
+            r.tasks_changed()
         if self.loaded is not None and not self.loaded.triggered:
             self.loaded.succeed()

@@ -27,6 +27,7 @@ from engine.messages import (
     TaskType,
 )
 from engine.robots.core import Assignment
+from engine.round_board import Rounds
 
 if TYPE_CHECKING:
     import simpy
@@ -48,7 +49,7 @@ class HearingRobot(Protocol):
     alive: bool
     current: Assignment | None
     queue: deque[Assignment]
-    rounds: dict[str, int]
+    rounds: Rounds
     recovery: Recovery
     house: AuctionHouse
     bidder: Bidder | None
@@ -69,32 +70,42 @@ def first_look(robot: HearingRobot, msg: Announce) -> bool:
     `rounds` is where my knowledge of an announced auction lives (its latest round, read
     when I bid); `bidder.biddable` holds those I could serve. Both are written exactly as
     `_on_announce` would: this only spares a busy robot the handler's path."""
+    why = only_notes(robot, msg)
+    if why == "note":
+        robot.rounds.note(msg.auction_id, msg.round)
+    return why is not None
+
+
+def only_notes(robot: HearingRobot, msg: Announce) -> str | None:
+    """`first_look` without its effect: None when the handler must hear the announcement,
+    else why not ("dead": I hear nothing; "note": I would only note its round). The board of
+    rounds (engine/round_board.py) asks it of the robots it skips, when checking itself."""
     if not robot.alive:
-        return True  # hears nothing (`on_message`)
-    aid, rounds = msg.auction_id, robot.rounds
-    if aid not in rounds:
-        return False  # a new auction to me
+        return "dead"  # hears nothing (`on_message`)
+    aid = msg.auction_id
+    if aid not in robot.rounds:
+        return None  # a new auction to me
     task_id = msg.task_id
     if task_id in robot.recovery.completed:
-        return False  # I say it is done
+        return None  # I say it is done
     cur = robot.current
     if (cur is not None and cur.task_id == task_id) or (
         robot.queue and any(a.task_id == task_id for a in robot.queue)
     ):
-        return False  # I say I hold it
+        return None  # I say I hold it
     bidder = robot.bidder
     if bidder is not None and aid in bidder.biddable and not bidder.stays_quiet():
-        return False  # the new round may draw a bid from me
-    rounds[aid] = msg.round
-    return True
+        return None  # the new round may draw a bid from me
+    return "note"
 
 
 def _on_announce(robot: HearingRobot, msg: Announce) -> None:
     task_id, aid = msg.task_id, msg.auction_id
-    recovery, bidder = robot.recovery, robot.bidder
+    recovery, bidder, rounds = robot.recovery, robot.bidder, robot.rounds
     if task_id in recovery.completed:
         # offered again from an old record (a watcher back from a failure that missed my
         # TaskDone): it is done, say so again and the auctioneer withdraws it
+        rounds.keep(aid)
         robot.ctx.bus.publish(
             TaskDone(sender=robot.name, auction_id=aid, task_id=task_id, outcome="done")
         )
@@ -103,15 +114,15 @@ def _on_announce(robot: HearingRobot, msg: Announce) -> None:
     if (cur is not None and cur.task_id == task_id) or (
         robot.queue and any(a.task_id == task_id for a in robot.queue)
     ):
+        rounds.keep(aid)
         robot.ctx.bus.publish(Holding(sender=robot.name, task_id=task_id, auction_id=aid))
         return
-    rounds = robot.rounds
     if aid in rounds:  # a re-announcement: only the round is new
-        rounds[aid] = msg.round
+        rounds.note(aid, msg.round)
         if bidder is not None and aid in bidder.biddable:
             bidder.consider_bids()
         return
-    rounds[aid] = msg.round
+    rounds.note(aid, msg.round)
     info = OpenAuction(
         aid,
         msg.auctioneer,
@@ -135,7 +146,7 @@ def _on_announce(robot: HearingRobot, msg: Announce) -> None:
 def _on_close(robot: HearingRobot, msg: Close) -> None:
     bidder = robot.bidder
     if bidder is None:
-        robot.rounds.pop(msg.auction_id, None)
+        robot.rounds.forget(msg.auction_id)
         info = None
     else:
         info = bidder.closed(msg.auction_id)
@@ -159,7 +170,7 @@ def _on_close(robot: HearingRobot, msg: Close) -> None:
         return
     reserved = bidder.reserved
     if reserved is not None and reserved.auction_id == msg.auction_id:
-        bidder.reserved = None
+        bidder.let_go()
         if msg.allocated_to == robot.name and robot.alive:
             robot.assign(
                 Assignment(

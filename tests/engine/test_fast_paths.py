@@ -10,6 +10,8 @@ injected tasks) and buses (ideal, lossy, late):
 - on the ideal bus a robot's first look at an announcement notes a re-announcement's round
   itself when that is all the handler would do (`Robot.first_look`, `Bidder.stays_quiet`),
   instead of every announcement going through `on_message`;
+- on the ideal bus a later round reaches only the robots it may change something for, and
+  the board of rounds notes it for the rest (`engine.round_board`);
 - a busy robot that said -inf in every target skips the bidding rules
   (`engine.bidding.refused_all`), and under a policy whose targets come from the auction
   list alone it is not asked again until the list or its bids change (`Bidder._note_quiet`);
@@ -57,7 +59,7 @@ def _plain_note(self: Bidder, info: OpenAuction) -> None:
 
 
 def _plain_forget(self: Bidder, auction_id: str) -> OpenAuction | None:
-    self.robot.rounds.pop(auction_id, None)
+    self.robot.rounds.forget(auction_id)
     info = self.biddable.pop(auction_id, None)
     if info is not None:
         self._in_order = None
@@ -110,6 +112,7 @@ def test_shortcuts_change_nothing(seed, policy, bus, busy_bid, actions):
         mp.setattr(Bidder, "note_auction", _plain_note)
         mp.setattr(Bidder, "forget_auction", _plain_forget)
         mp.setattr(Robot, "first_look", lambda self, msg: False)
+        mp.setattr(EmbeddedBus, "rounds_on_board", False)
         plain = _play(scenario, seed, policy, plan)
     assert fast == plain
 
