@@ -75,9 +75,10 @@ class Mission(SimulatedViews):
         ctx.policy = self._make_policy(self.initial_policy)
         install_realism(ctx, work_rng)
         ctx.bus = make_bus(ctx, bus_rng)
+        team = roster(scenario.team)
+        ctx.liveness.reserve(len(team) + 1)  # and the operator's console
         self.operator = Operator(OPERATOR, ctx, self.world.plant, 1.0)
         self._counts: dict[str, int] = {t: 0 for t in ROBOT_TYPES}
-        team = roster(scenario.team)
         self.routes = scout_routes(self.world, scenario.team.scouts)
         starts = self._start_positions(len(team))
         robots: list[Robot] = [self.operator]

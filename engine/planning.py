@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import threading
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -61,12 +62,18 @@ class StraightLinePlanner:
 class ShortcutPlanner:
     """What every obstacle-aware planner shares: a collision-free straight segment is the
     answer (it is the shortest path), and a repeated query is answered from a per-run cache;
-    a subclass solves the rest (`_solve`)."""
+    a subclass solves the rest (`_solve`).
+
+    `cache_limit`: the solved paths kept (None: all). Only a planner whose answer is a
+    function of the query alone may forget one: a random planner's repeated query must get
+    the path it got the first time."""
+
+    cache_limit: int | None = None
 
     def __init__(self, world: World) -> None:
         self.stats = PlannerStats()
         self._index = world.index
-        self._cache: dict[tuple[Point, Point], Path] = {}
+        self._cache: OrderedDict[tuple[Point, Point], Path] = OrderedDict()
 
     def plan(self, start: Point, goal: Point) -> Path:
         self.stats.queries += 1
@@ -74,12 +81,17 @@ class ShortcutPlanner:
             self.stats.straight += 1
             return (start, goal)
         key = (start, goal)
-        hit = self._cache.get(key)
+        cache = self._cache
+        hit = cache.get(key)
         if hit is not None:
             self.stats.cached += 1
+            if self.cache_limit is not None:
+                cache.move_to_end(key)
             return hit
         path = self._solve(start, goal)
-        self._cache[key] = path
+        cache[key] = path
+        if self.cache_limit is not None and len(cache) > self.cache_limit:
+            cache.popitem(last=False)
         return path
 
     def _solve(self, start: Point, goal: Point) -> Path:

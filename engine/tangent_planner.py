@@ -286,6 +286,11 @@ class TangentPlanner(ShortcutPlanner):
     goal's distance field (engine/tangent_field.py): the many robots that price one task
     share its goal's side of the work. The fields of the last `_FIELDS` goals are kept."""
 
+    cache_limit = 16_384
+    """Solved paths kept: an exact answer is the same whenever it is asked, so one forgotten
+    is found again (most repeats come within a few thousand queries; at scale 100 keeping
+    them all was a quarter of a GB)."""
+
     def __init__(self, world: World) -> None:
         super().__init__(world)
         self._world = world
