@@ -3,7 +3,15 @@ one: twelve robots on the map moving, counters rising, an operator SIGKILL of a 
 holds a transport shown as a failed robot, its transport re-auctioned to another, a new
 excavator process joining and winning excavations, a pause (its time standing, no delivery)
 and a resume, the mission run to completion at 50×; and all of it in the database's tables:
-every mineral delivered (docs/field.md)."""
+every mineral delivered (docs/field.md).
+
+Its live view tells the truth as a simulated one's does (docs/dashboard.md): the timeline is
+on and says a field run plays back from its stored poses (tests/e2e/test_field_playback.py
+scrubs one), each robot's distance travelled is measured from what mission control hears
+(table, chart and stored metrics), the counters on completion are the final ones, only the
+SIGKILLed hauler is shown failed (none whose process ended with the mission), and every
+auction the API shows closed is closed in the feed (none left "open" after the end). (These
+were a second field mission of their own, test_field_view.py; one mission serves both.)"""
 
 from __future__ import annotations
 
@@ -38,6 +46,13 @@ def _field_mission_on_the_dashboard(
     open_live(page, mid)
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")
     first = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
+    # a field run plays back from its stored poses: the timeline is on and says so
+    timeline = page.locator("#timeline")
+    expect(timeline).to_have_attribute("data-source", "poses")
+    expect(timeline).not_to_have_attribute("data-disabled", "true")
+    expect(page.locator("#tl-range")).to_be_enabled()
+    expect(page.locator("#tl-play")).to_be_enabled()
+    expect(page.locator("#tl-source")).to_have_text("field: stored poses")
     # a new excavator joins (a new agent process) mid-mission and must win work: while the
     # scouts still find sites (the last ones by ~1300 s; joining later, it raced the last
     # excavation auctions and could find none left)
@@ -49,6 +64,28 @@ def _field_mission_on_the_dashboard(
     wait_for(page, "window.__regolith.lastCounters.minerals_delivered >= 3", STALL_S, WORK)
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
+    # distances from the heartbeats: every robot that moved has a distance, and the chart
+    # shows each type's sum, while the mission runs
+    wait_for(
+        page,
+        """[...document.querySelectorAll('#robot-table tr[data-robot]')]
+            .filter(tr => Number(tr.dataset.distance) > 0).length >= 10""",
+        STALL_S,
+        WORK,
+    )
+    chart = page.evaluate("window.__regolith.charts.distance")
+    assert all(chart.get(t, 0) > 0 for t in ("scout", "excavator", "hauler")), chart
+    expect(page.locator("#chart-distance")).not_to_contain_text("no data")
+    grown = table_distances(page)
+    wait_for(  # and they grow as the robots drive on
+        page,
+        f"""(() => {{ const was = {grown};
+            return [...document.querySelectorAll('#robot-table tr[data-robot]')]
+              .filter(tr => Number(tr.dataset.distance) > (was[tr.dataset.robot] || 0) + 1)
+              .length >= 6; }})()""",
+        STALL_S,
+        WORK,
+    )
     # pause: every agent stands (field/clock.py), the dashboard shows the mission paused, its
     # time standing and no new delivery; then a speed button resumes it (as on a simulated
     # mission), and its own pace is given back; "max" means nothing on the wall clock
@@ -131,6 +168,26 @@ def _field_mission_on_the_dashboard(
     m = detail["metrics"]
     assert m["minerals_delivered"] == m["minerals_total"] == 64, m
     assert m["sites_found"] == m["sites_total"] == 10, m
+    wait_for(page, "window.__regolith.final", timeout=30)
+    # the counters are the final ones (the stored metrics)
+    counters = page.evaluate("window.__regolith.lastCounters")
+    assert counters["minerals_delivered"] == m["minerals_delivered"] == 64, (counters, m)
+    expect(page.locator("[data-counter='minerals']")).to_have_text("64/64")
+    # only the SIGKILLed hauler is shown failed: none because its process ended with the mission
+    failed = page.locator('#robot-table tr[data-robot][data-state="failed"]')
+    expect(failed).to_have_count(1)
+    expect(failed).to_have_attribute("data-robot", victim)
+    # the stored metrics carry the distances, as a simulated run's do
+    assert all(m["distance"][t] > 0 for t in ("scout", "excavator", "hauler")), m["distance"]
+    assert m["distance_total"] == pytest.approx(sum(m["distance"].values()))
+    # every auction as the API has it: closed in the feed too, none left open
+    listed = api.get(f"/missions/{mid}/auctions", params={"limit": 500}).json()["items"]
+    expect(page.locator("#feed-count")).to_have_text(f"{len(listed)} · 0 open")
+    feed = {a["id"]: a["status"] for a in page.evaluate("window.__regolith.auctions")}
+    assert set(feed) == {a["id"] for a in listed}
+    wrong = {a["id"]: (feed[a["id"]], a["status"]) for a in listed if feed[a["id"]] != a["status"]}
+    assert wrong == {}, wrong
+    assert console.errors == []
 
     # what mission control recorded is in the database, in the same tables as a simulated
     # mission's: the victim's transport re-auctioned to another, the newcomer's excavations
@@ -176,3 +233,12 @@ def _agents(parent: int) -> list[int]:
         if b"app.cli\x00agent" in cmd and int(stat[1]) == parent and stat[0] != "Z":
             out.append(int(pid))
     return out
+
+
+def table_distances(page: Page) -> dict[str, float]:
+    return dict(
+        page.evaluate(
+            """Object.fromEntries([...document.querySelectorAll('#robot-table tr[data-robot]')]
+                .map(tr => [tr.dataset.robot, Number(tr.dataset.distance)]))"""
+        )
+    )

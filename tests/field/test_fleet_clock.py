@@ -21,7 +21,7 @@ from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import Progress
 
-SPEED = 50.0
+SPEED = 100.0
 WORK = ("delivered", "sites_found", "scanned", "ground", "aboard")
 PAUSE_SIM_S = 400.0
 """Mission time the pause is watched for, at the speed it would have run: ~10 deliveries."""
