@@ -39,9 +39,13 @@ class StubHauler:
         self.current = None
         self.pos = (0.0, 0.0)
         self.woken = 0
+        self.changed = 0
 
     def wake(self) -> None:
         self.woken += 1
+
+    def tasks_changed(self) -> None:
+        self.changed += 1
 
 
 def _taking() -> tuple[StubHauler, Taking]:
@@ -60,6 +64,7 @@ def test_a_hand_over_goes_apart_waiting_loading_full():
     assert t.state == "full" and h.bin == 1 and t.loading_s is None
     assert loaded.triggered
     assert h.current is not None and h.current.task_id == "t1"  # a coalition hand-over's task
+    assert h.changed == 1  # the board of rounds learns the hauler holds it
     assert h.current.auctioneer == "excavator-1"
     assert not t.on_handover(GIVER, Transfer("t1"), recorded)  # a bin takes one mineral
     assert h.bin == 1
