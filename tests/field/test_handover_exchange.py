@@ -48,6 +48,9 @@ class Robot:
     def wake(self) -> None:
         pass
 
+    def tasks_changed(self) -> None:
+        pass  # the board of rounds (engine/round_board.py) is the simulation's, not the field's
+
     def on_handover(self, sender: Any, msg: Any, witness: Any) -> bool:
         return self.taking.on_handover(sender, msg, witness)
 
