@@ -43,14 +43,11 @@ STALL = os.environ.get("REGOLITH_FIELD_CHAOS_STALL", "0.4@4")
 the last case: 0.4 s is 40 s of mission time at 100×, past the 30 s failure timeout."""
 CASES = [(s, None) for s in SEEDS] + [(SEEDS[-1] + 101, STALL)]
 SPEED = 100.0
-STALL_SPEED = 50.0
-STALL_FLOOR = 25.0
-"""The case with injected stalls runs at half the pace (its stalls scaled to the same mission
-time): at 100x on two cores the agents' own CPU use starves them on top of the injected
-stalls, and the mission crawls (after 4,500 s of mission time, 1-3 deliveries per 1,500 s,
-every query still answered); at 50x it finishes, as at 25x. Slowed on a busy machine as
-every field test is (tests/field/pace.py), but never below 25x (under two hogs a quarter of
-the pace was 6.25x and ~13 minutes)."""
+STALL_SPEED = 25.0
+"""The case with injected stalls runs at a quarter of the pace (its stalls scaled to the same
+mission time): at 100x on two cores the agents' own CPU use starves them on top of the
+injected stalls, and the mission crawls (after 4,500 s of mission time, 1-3 deliveries per
+1,500 s, every query still answered); at 25x it finishes."""
 CHAOS_UNTIL_S = 1200.0  # mission time of random actions; then every killed robot restarts
 #: What a field mission's progress is (tests/progress.py: a loaded machine slows it, so the
 #: test waits while any of these moves, not for a fixed time; ~35 s when the machine is idle).
@@ -303,7 +300,7 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
     rng = random.Random(seed)
     decentralized = sorted(n for n, p in POLICIES.items() if p.decentralized)
     with one_field_mission_at_a_time():
-        speed = paced(SPEED) if stall is None else max(paced(STALL_SPEED), STALL_FLOOR)
+        speed = paced(SPEED) if stall is None else min(paced(SPEED), STALL_SPEED)
         if stall is not None and speed < SPEED:  # the same starvation in mission time
             for_s, every_s = (float(x) * SPEED / speed for x in stall.split("@"))
             stall = f"{for_s:g}@{every_s:g}"
