@@ -179,7 +179,7 @@ class _Options:
         self.end_k = np.stack(ks, axis=1)
         self.to_end = e_sweep < fan.sweep[ids]
         self.sweep = np.where(self.to_end, e_sweep, fan.sweep[ids])
-        self.head = fan.head[ids]
+        self.head = fan.heads(ids)
         self.end_dist = np.full(self.end_k.shape, np.inf)
         if self.to_end.any():
             end_head = fan.near[ids][:, None] + arc_lengths(
