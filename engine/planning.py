@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from engine.geometry import Point
 from engine.world import World
@@ -59,6 +60,20 @@ class StraightLinePlanner:
         pass
 
 
+Packed = npt.NDArray[np.float64]
+"""A path kept in a planner's cache: its points as rows of floats, 16 bytes a point instead of
+the ~120 of a tuple of two Python floats (scale 100 keeps 16,384 paths of ~30 points)."""
+
+
+def pack(path: Path) -> Packed:
+    return np.array(path, dtype=np.float64)
+
+
+def unpack(packed: Packed) -> Path:
+    """The path as it was packed: the same floats, as tuples."""
+    return tuple((x, y) for x, y in packed.tolist())
+
+
 class ShortcutPlanner:
     """What every obstacle-aware planner shares: a collision-free straight segment is the
     answer (it is the shortest path), and a repeated query is answered from a per-run cache;
@@ -73,7 +88,7 @@ class ShortcutPlanner:
     def __init__(self, world: World) -> None:
         self.stats = PlannerStats()
         self._index = world.index
-        self._cache: OrderedDict[tuple[Point, Point], Path] = OrderedDict()
+        self._cache: OrderedDict[tuple[Point, Point], Packed] = OrderedDict()
 
     def plan(self, start: Point, goal: Point) -> Path:
         self.stats.queries += 1
@@ -87,9 +102,9 @@ class ShortcutPlanner:
             self.stats.cached += 1
             if self.cache_limit is not None:
                 cache.move_to_end(key)
-            return hit
+            return unpack(hit)
         path = self._solve(start, goal)
-        cache[key] = path
+        cache[key] = pack(path)
         if self.cache_limit is not None and len(cache) > self.cache_limit:
             cache.popitem(last=False)
         return path
