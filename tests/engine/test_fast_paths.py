@@ -40,7 +40,7 @@ from engine import POLICIES, Mission, reference_scenario
 from engine.bidding import OpenAuction
 from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
-from engine.liveness import Liveness
+from engine.liveness import HISTORY, Liveness
 from engine.policies import FirstComeFirstServed, check_policy
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
@@ -156,6 +156,51 @@ def test_silent_peers_match_a_look_at_every_entry(ops, timeout):
                 board.deliver_heartbeat(sender, serial, None if op == "hb_all" else some, now)
         for r in board.names:
             assert board.silent(r, now, timeout) == _brute_silent(board, r, now, timeout)
+
+
+@given(
+    beats=st.lists(
+        st.tuples(
+            st.integers(0, 2),  # sender
+            st.lists(st.sampled_from(["t1", "t2", "t3"]), max_size=2, unique=True),
+            st.lists(st.tuples(st.floats(0, 99), st.floats(0, 99)), max_size=3),
+            st.sets(st.integers(0, 3)),  # who hears it
+        ),
+        max_size=2 * HISTORY + 10,
+    )
+)
+@settings(max_examples=100, deadline=None)
+def test_the_kept_history_answers_with_the_heartbeats_sent(beats):
+    """`Liveness` keeps a heartbeat as its field values; what it hands back is the heartbeat
+    that was sent (each receiver's last one, and the last one it heard naming a task), as a
+    plain list of every heartbeat sent, kept whole, gives."""
+    from engine.messages import Heartbeat
+
+    board, names = Liveness(), ["a", "b", "c", "d"]
+    for name in names:
+        board.add(name)
+    sent: dict[str, list[tuple[int, Heartbeat]]] = {n: [] for n in names}
+    seen = {(r, s): -1 for r in names for s in names}
+    for t, (k, tasks, path, hearers) in enumerate(beats):
+        sender = names[k]
+        hb = Heartbeat(
+            sender=sender, rtype="hauler", t=float(t), x=1.0, y=2.0, state="moving",
+            tasks=tuple(tasks), path=tuple(path), load=len(path),
+        )  # fmt: skip
+        serial = board.record_heartbeat(hb)
+        sent[sender].append((serial, hb))
+        receivers = np.array(sorted(hearers), dtype=np.int64)
+        board.deliver_heartbeat(sender, serial, receivers, float(t))
+        for r in hearers:
+            seen[names[r], sender] = serial
+    for (r, s), want in seen.items():
+        kept = sent[s][-HISTORY:]
+        last = next((hb for n, hb in kept if n == want), None)
+        got = board.last_heartbeat(r, s)
+        assert got == last and (got is None or got.to_dict() == last.to_dict())
+        for task in ("t1", "t2", "t3"):
+            about = next((hb for n, hb in reversed(kept) if n <= want and task in hb.tasks), None)
+            assert board.last_heartbeat_about(r, s, task) == about
 
 
 def test_time_a_receiver_was_deaf_is_not_its_peers_silence():
