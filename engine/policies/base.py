@@ -76,6 +76,13 @@ class Policy:
     its own bids change (a hauler hears every re-announcement of every waiting transport).
     A class that overrides either method states it again (`register_policy` checks)."""
 
+    def targets_from_list_of(self, rtype: str) -> bool:
+        """`targets_from_list` for the robots of one type: a policy whose targets read more
+        than the list only for some types says which here (Policy 2: a paired hauler's
+        targets read its partner; its excavators bid as Policy 1). A class that overrides
+        `bid_targets` or `bids` below the one that answers here answers again."""
+        return self.targets_from_list
+
     def __init__(self, context: PolicyContext | None = None) -> None:
         self.context = context if context is not None else PolicyContext()
         unknown = sorted(set(self.context.params) - set(self.defaults))

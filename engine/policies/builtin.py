@@ -50,6 +50,9 @@ class AnticipatoryCoalitions(FirstComeFirstServed):
     description = "excavator-k and hauler-k work as a pair; the rest bid as Policy 1"
     targets_from_list = False  # a paired hauler's targets depend on its partner
 
+    def targets_from_list_of(self, rtype: str) -> bool:
+        return rtype != "hauler"
+
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         if view.rtype == "hauler" and view.paired():
             if view.partner_working():
@@ -167,6 +170,9 @@ class RelaxedCoalitions(AnticipatoryCoalitions):
     number, name = 5, "coalition-relaxed"
     label, colour = "Coalitions (relaxed)", "#cc79a7"
     description = "Policy 2, but a paired hauler with an idle partner carries for anyone"
+
+    def targets_from_list_of(self, rtype: str) -> bool:
+        return rtype != "hauler"
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         if view.rtype == "hauler" and view.paired() and view.partner_working():

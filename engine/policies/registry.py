@@ -34,16 +34,19 @@ def _owner(cls: type, attr: str) -> type:
 
 def _check_targets_from_list(cls: type[Policy]) -> None:
     """A class that overrides `bid_targets` or `bids` below the class that declared
-    `targets_from_list = True` must state the flag again: the promise was about other code."""
-    if not cls.targets_from_list:
-        return
-    flag = _owner(cls, "targets_from_list")
-    for method in _OVERRIDES_TARGETS:
-        if issubclass(_owner(cls, method), flag) and _owner(cls, method) is not flag:
-            raise ValueError(
-                f"{cls.__name__}: overrides {method} but inherits targets_from_list = True "
-                f"from {flag.__name__}; state it again (True or False) in the class"
-            )
+    `targets_from_list = True`, or that answered `targets_from_list_of`, must state the flag
+    (or the answer) again: the promise was about other code."""
+    promises = [("targets_from_list", "targets_from_list = True")] if cls.targets_from_list else []
+    if _owner(cls, "targets_from_list_of") is not Policy:
+        promises.append(("targets_from_list_of", "targets_from_list_of"))
+    for attr, what in promises:
+        flag = _owner(cls, attr)
+        for method in _OVERRIDES_TARGETS:
+            if issubclass(_owner(cls, method), flag) and _owner(cls, method) is not flag:
+                raise ValueError(
+                    f"{cls.__name__}: overrides {method} but inherits {what} "
+                    f"from {flag.__name__}; state it again in the class"
+                )
 
 
 def check_policy(cls: type[Policy]) -> None:

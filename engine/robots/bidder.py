@@ -352,8 +352,9 @@ class Bidder(Pricing):
     def _note_quiet(self, auctions: list[OpenAuction], policy: Policy) -> None:
         """Remember that, busy, I had nothing to send for this list (an object never changed
         in place) and my bids as they are: under a policy whose targets come from the list
-        alone, asking again before either changes gives the same nothing."""
-        if policy.targets_from_list:
+        alone, for robots of my type (`Policy.targets_from_list_of`), asking again before
+        either changes gives the same nothing."""
+        if policy.targets_from_list_of(self.robot.rtype):
             self._quiet_on, self._quiet_policy = auctions, policy
             if self._board is not None:
                 self._board.settle(self.name)

@@ -262,6 +262,32 @@ def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_l
     assert not POLICIES["lookahead"].targets_from_list
 
 
+def test_a_policy_below_one_that_answers_per_type_must_answer_again():
+    """Policy 2's excavators bid as Policy 1, so a busy one that sent nothing is not asked
+    again (`targets_from_list_of`); its haulers read their partner. A subclass that chooses
+    targets otherwise must answer again, as for the flag."""
+    coalition = POLICIES["coalition"]
+    assert coalition().targets_from_list_of("excavator")
+    assert not coalition().targets_from_list_of("hauler")
+
+    class NoAnswer(coalition):  # type: ignore[misc,valid-type]
+        def bid_targets(self, view: Any, auctions: Any) -> Any:
+            return []
+
+    class Answers(coalition):  # type: ignore[misc,valid-type]
+        def targets_from_list_of(self, rtype: str) -> bool:
+            return False
+
+        def bid_targets(self, view: Any, auctions: Any) -> Any:
+            return []
+
+    with pytest.raises(
+        ValueError, match="NoAnswer: overrides bid_targets but inherits targets_from_list_of"
+    ):
+        check_policy(NoAnswer)
+    check_policy(Answers)
+
+
 def test_a_quiet_robot_is_quiet_no_more_once_it_has_room():
     """`Bidder.stays_quiet` (the first look's shortcut) holds only while `consider_bids` would
     return at once: a robot freed since its quiet look must be asked again. Random missions
