@@ -48,8 +48,19 @@ class RobotView(Protocol):
         """A hauler paired with a live excavator under a coalition policy (Policy 2)."""
         ...
 
+    def has_partner(self) -> bool:
+        """My coalition partner (Policy 2's pairing by name) is on the team, alive or not: it
+        changes only when a robot joins."""
+        ...
+
     def partner_working(self) -> bool:
         """That partner has a site to work (the hauler follows it there)."""
+        ...
+
+    def paired_until(self) -> float:
+        """The time up to which `paired` stays true unless something stirs this robot first
+        (its partner found down, a new policy): the partner's last hearing plus the failure
+        timeout; -inf when not paired."""
         ...
 
     def stranded(self, a: OpenAuction) -> bool:

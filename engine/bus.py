@@ -192,7 +192,7 @@ class EmbeddedBus:
             listed = [n for n, _ in self._audience(msg)]
             names = self._audience_names[key] = (listed, frozenset(listed))
         if board.sparse(msg):
-            board.deliver_sparse(msg, names[1], visit)
+            board.deliver_sparse(msg, names[1], visit, float(self._env.now))
         else:
             board.deliver_all(msg, [n for n in names[0] if n != msg.sender], visit)
 

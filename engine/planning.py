@@ -70,7 +70,8 @@ def pack(path: Path) -> Packed:
 
 
 def unpack(packed: Packed) -> Path:
-    """The path as it was packed: the same floats, as tuples."""
+    """The path as it was packed: the same floats, as tuples (every point of an engine path
+    is floats already: pydantic makes every location of a scenario or a message a float)."""
     return tuple((x, y) for x, y in packed.tolist())
 
 

@@ -13,7 +13,10 @@ something for, in subscription order, with the same first look and handler as be
 - the *holders* and *finishers* of its task (they answer Holding or TaskDone);
 - *attentive* bidders that can serve it: bidders not known to be quiet. Whatever can end a
   bidder's quiet (its auction list, its bids, its tasks, its reservation, its battery, the
-  policy) stirs it; a look that finds it quiet settles it.
+  policy, a coalition partner's site) stirs it; a look that finds it quiet settles it. A
+  quiet may also have a time (`Policy.no_targets_until`: Policy 2's paired hauler has no
+  targets while its partner works, until the partner could be declared silent): the first
+  later round from that time stirs it.
 
 Visiting a robot that did not need it changes nothing; missing one would change the run.
 With `CHECK` set (tests), every round also asks each robot it did not visit whether the
@@ -27,6 +30,7 @@ robot's `Rounds` is then a plain table.
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Callable, Iterator, Mapping
 from typing import Protocol
 
@@ -35,11 +39,14 @@ from engine.messages import Announce
 CHECK = False
 """Verify every round the board skips (slow: for tests)."""
 
+_EARLY = 1e-6
+"""Seconds before its time a robot quiet until then is stirred (rounding in that time)."""
+
 
 class _Bidder(Protocol):
     @property
     def biddable(self) -> Mapping[str, object]: ...
-    def stays_quiet(self) -> bool: ...
+    def quiet_until(self) -> float | None: ...
 
 
 Visit = Callable[[str], None]
@@ -150,6 +157,8 @@ class RoundBoard:
         self._only_notes: dict[str, OnlyNotes] = {}
         self._delivering: str | None = None
         self._stirred: list[str] = []  # robots stirred while a round is delivered
+        self._wakes: list[tuple[float, int, str]] = []  # (time, order, robot): quiet until then
+        self._wake_at: dict[str, float] = {}  # each robot's latest such time
 
     # --- the robots -----------------------------------------------------------------------
     def join(
@@ -160,8 +169,12 @@ class RoundBoard:
         rounds: Rounds,
         only_notes: OnlyNotes,
     ) -> None:
-        """A robot subscribed (again): a stranger to every open auction it can hear."""
-        self._order.setdefault(name, len(self._order))
+        """A robot subscribed (again): a stranger to every open auction it can hear. A
+        newcomer stirs everyone: it may be someone's coalition partner
+        (`Policy.targets_from_list_for`)."""
+        if name not in self._order:
+            self._order[name] = len(self._order)
+            self.stir_all()
         self._member[name] = (rtype, hears)
         self._rounds[name] = rounds
         self._only_notes[name] = only_notes
@@ -190,10 +203,26 @@ class RoundBoard:
             self.stir(name)
 
     def settle(self, name: str) -> None:
-        """The robot's bidder found itself quiet."""
+        """The robot's bidder found itself quiet: until stirred, or until a time (it is
+        stirred then: `_wake_due`)."""
         bidder = self._bidders.get(name)
-        if bidder is None or bidder.stays_quiet():
-            self._attentive.discard(name)
+        until = math.inf if bidder is None else bidder.quiet_until()
+        if until is None:
+            return
+        self._attentive.discard(name)
+        if until < math.inf:
+            self._wake_at[name] = until
+            heapq.heappush(self._wakes, (until, self._order[name], name))
+
+    def _wake_due(self, now: float) -> None:
+        """Stir the robots whose quiet had a time that has come (a little early: a visit
+        that finds a robot still quiet changes nothing, while a late one would miss a bid)."""
+        wakes = self._wakes
+        while wakes and wakes[0][0] <= now + _EARLY:
+            until, _, name = heapq.heappop(wakes)
+            if self._wake_at.get(name) == until:
+                del self._wake_at[name]
+                self.stir(name)
 
     def held(self, name: str, tasks: frozenset[str]) -> None:
         """The tasks this robot holds now (current and queued)."""
@@ -257,9 +286,12 @@ class RoundBoard:
         self._open[aid] = (msg.task_type, msg.sender, self._member.get(msg.sender, ("", None))[0])
         self._delivered(msg)
 
-    def deliver_sparse(self, msg: Announce, audience: frozenset[str], visit: Visit) -> None:
+    def deliver_sparse(
+        self, msg: Announce, audience: frozenset[str], visit: Visit, now: float
+    ) -> None:
         """A later round: visits the strangers, the task's holders and finishers and the
         attentive bidders that can serve it, in subscription order; notes it for the rest."""
+        self._wake_due(now)
         aid, task_id = msg.auction_id, msg.task_id
         bidders, order = self._bidders, self._order
         due = set(self._strangers[aid])

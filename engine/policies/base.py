@@ -76,12 +76,20 @@ class Policy:
     its own bids change (a hauler hears every re-announcement of every waiting transport).
     A class that overrides either method states it again (`register_policy` checks)."""
 
-    def targets_from_list_of(self, rtype: str) -> bool:
-        """`targets_from_list` for the robots of one type: a policy whose targets read more
-        than the list only for some types says which here (Policy 2: a paired hauler's
-        targets read its partner; its excavators bid as Policy 1). A class that overrides
-        `bid_targets` or `bids` below the one that answers here answers again."""
+    def targets_from_list_for(self, view: RobotView) -> bool:
+        """`targets_from_list` for one robot: a policy whose targets read more than the list
+        only for some robots says which here (Policy 2: a hauler's targets read its partner;
+        its excavators, and haulers without a partner, bid as Policy 1). A class that
+        overrides `bid_targets` or `bids` below the one that answers here answers again."""
         return self.targets_from_list
+
+    def no_targets_until(self, view: RobotView) -> float | None:
+        """A time up to which `bid_targets` gives this robot nothing, whatever its auction
+        list, unless something that stirs it changes first (engine/round_board.py: its
+        tasks, its list, the policy; a partner's site). None: no such promise. Later rounds
+        then leave it be until that time (Policy 2: a paired hauler whose partner works,
+        until the partner could be declared silent)."""
+        return None
 
     def __init__(self, context: PolicyContext | None = None) -> None:
         self.context = context if context is not None else PolicyContext()

@@ -50,8 +50,13 @@ class AnticipatoryCoalitions(FirstComeFirstServed):
     description = "excavator-k and hauler-k work as a pair; the rest bid as Policy 1"
     targets_from_list = False  # a paired hauler's targets depend on its partner
 
-    def targets_from_list_of(self, rtype: str) -> bool:
-        return rtype != "hauler"
+    def targets_from_list_for(self, view: RobotView) -> bool:
+        return view.rtype != "hauler" or not view.has_partner()
+
+    def no_targets_until(self, view: RobotView) -> float | None:
+        if view.rtype == "hauler" and view.partner_working():
+            return view.paired_until()
+        return None
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         if view.rtype == "hauler" and view.paired():
@@ -171,8 +176,13 @@ class RelaxedCoalitions(AnticipatoryCoalitions):
     label, colour = "Coalitions (relaxed)", "#cc79a7"
     description = "Policy 2, but a paired hauler with an idle partner carries for anyone"
 
-    def targets_from_list_of(self, rtype: str) -> bool:
-        return rtype != "hauler"
+    def targets_from_list_for(self, view: RobotView) -> bool:
+        return view.rtype != "hauler" or not view.has_partner()
+
+    def no_targets_until(self, view: RobotView) -> float | None:
+        if view.rtype == "hauler" and view.partner_working():
+            return view.paired_until()
+        return None
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         if view.rtype == "hauler" and view.paired() and view.partner_working():

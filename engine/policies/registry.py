@@ -34,11 +34,13 @@ def _owner(cls: type, attr: str) -> type:
 
 def _check_targets_from_list(cls: type[Policy]) -> None:
     """A class that overrides `bid_targets` or `bids` below the class that declared
-    `targets_from_list = True`, or that answered `targets_from_list_of`, must state the flag
-    (or the answer) again: the promise was about other code."""
+    `targets_from_list = True`, or that answered `targets_from_list_for` or
+    `no_targets_until`, must state the flag (or the answer) again: the promise was about
+    other code."""
     promises = [("targets_from_list", "targets_from_list = True")] if cls.targets_from_list else []
-    if _owner(cls, "targets_from_list_of") is not Policy:
-        promises.append(("targets_from_list_of", "targets_from_list_of"))
+    for answer in ("targets_from_list_for", "no_targets_until"):
+        if _owner(cls, answer) is not Policy:
+            promises.append((answer, answer))
     for attr, what in promises:
         flag = _owner(cls, attr)
         for method in _OVERRIDES_TARGETS:

@@ -37,7 +37,7 @@ _OPENING = attrgetter("order")
 class BiddingRobot(Protocol):
     """What the bidding part needs of its robot: who and where it is, what it holds, and the
     type's own answers to the policy (`free_at`, and for coalitions `paired`,
-    `partner_working`, `stranded`)."""
+    `partner_working`, `paired_until`, `stranded`)."""
 
     name: str
     rtype: str
@@ -48,6 +48,7 @@ class BiddingRobot(Protocol):
     current: Assignment | None
     queue: deque[Assignment]
     rounds: Rounds
+    partner: str | None
 
     @property
     def capability(self) -> TaskType | None: ...
@@ -60,6 +61,7 @@ class BiddingRobot(Protocol):
     def free_at(self) -> tuple[float, Point]: ...
     def paired(self) -> bool: ...
     def partner_working(self) -> bool: ...
+    def paired_until(self) -> float: ...
     def stranded(self, a: OpenAuction) -> bool: ...
 
 
@@ -336,25 +338,36 @@ class Bidder(Pricing):
             self._bid(a, rnd, utility)
 
     def stays_quiet(self) -> bool:
-        """Would `consider_bids` return at once? Busy, and neither my auction list nor the
-        policy changed since I last had nothing to send (`_note_quiet`). Asked by the ideal
-        bus's first look at a re-announcement (`Robot.first_look`), so that a busy robot only
-        notes the round instead of going through the whole handler."""
+        """Would `consider_bids` send nothing? Asked by the ideal bus's first look at a
+        re-announcement (`Robot.first_look`), so that such a robot only notes the round
+        instead of going through the whole handler."""
+        return self.quiet_until() is not None
+
+    def quiet_until(self) -> float | None:
+        """Up to when `consider_bids` sends nothing unless I am stirred (None: it may send
+        now). Busy, with neither my auction list nor the policy changed since I last had
+        nothing to send (`_note_quiet`): until stirred. Or a policy's promise of no targets
+        whatever the list (`Policy.no_targets_until`): until its time."""
         order = self._in_order
-        return (
+        policy = self.ctx.policy
+        if (
             order is not None
             and self._quiet_on is order
-            and self._quiet_policy is self.ctx.policy
+            and self._quiet_policy is policy
             and not self._every_round
             and not self.has_room()
-        )
+            and policy.targets_from_list_for(self)  # as when noted (unless a partner joined)
+        ):
+            return math.inf
+        until = policy.no_targets_until(self)
+        return until if until is not None and until > self.env.now else None
 
     def _note_quiet(self, auctions: list[OpenAuction], policy: Policy) -> None:
         """Remember that, busy, I had nothing to send for this list (an object never changed
         in place) and my bids as they are: under a policy whose targets come from the list
-        alone, for robots of my type (`Policy.targets_from_list_of`), asking again before
-        either changes gives the same nothing."""
-        if policy.targets_from_list_of(self.robot.rtype):
+        alone for me (`Policy.targets_from_list_for`), asking again before either changes
+        gives the same nothing."""
+        if policy.targets_from_list_for(self):
             self._quiet_on, self._quiet_policy = auctions, policy
             if self._board is not None:
                 self._board.settle(self.name)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import simpy
@@ -309,6 +310,9 @@ class Excavator(Robot):
 
     def partner_working(self) -> bool:
         return False
+
+    def paired_until(self) -> float:
+        return -math.inf
 
     def stranded(self, a: OpenAuction) -> bool:
         return False

@@ -10,6 +10,7 @@ longer lists a site.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Protocol
 
 from engine.geometry import Point
@@ -29,14 +30,26 @@ class PartneredRobot(Protocol):
     recovery: Recovery
 
     def wake(self) -> None: ...
+    def stir(self) -> None: ...
     def consider_bids(self) -> None: ...
 
 
 class Partnership:
     def __init__(self, robot: PartneredRobot) -> None:
         self.robot = robot
-        self.site: Point | None = None  # where my partner digs, as far as I know
+        self._site: Point | None = None
         self._done: set[str] = set()  # sites my partner finished or left
+
+    @property
+    def site(self) -> Point | None:
+        """Where my partner digs, as far as I know."""
+        return self._site
+
+    @site.setter
+    def site(self, where: Point | None) -> None:
+        if (where is None) != (self._site is None):
+            self.robot.stir()  # my bid targets read whether my partner works (Policy 2)
+        self._site = where
 
     def paired(self) -> bool:
         """Paired with a live partner under a coalition policy."""
@@ -47,6 +60,14 @@ class Partnership:
             and robot.ctx.policy.coalitions()
             and robot.recovery.peer_alive(partner)
         )
+
+    def paired_until(self) -> float:
+        """`RobotView.paired_until`."""
+        robot = self.robot
+        partner = robot.partner
+        if partner is None or not robot.ctx.policy.coalitions():
+            return -math.inf
+        return robot.recovery.alive_until(partner)
 
     def following(self) -> bool:
         """Paired, and the partner has a site: follow it there."""

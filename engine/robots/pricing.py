@@ -20,10 +20,12 @@ class PricedRobot(Protocol):
     """What pricing needs of its robot: where it is and the type's own answers."""
 
     mobility: Mobility
+    partner: str | None
 
     def free_at(self) -> tuple[float, Point]: ...
     def paired(self) -> bool: ...
     def partner_working(self) -> bool: ...
+    def paired_until(self) -> float: ...
     def stranded(self, a: OpenAuction) -> bool: ...
 
 
@@ -36,8 +38,15 @@ class Pricing:
     def paired(self) -> bool:
         return self.robot.paired()
 
+    def has_partner(self) -> bool:
+        partner = self.robot.partner
+        return partner is not None and partner in self.ctx.robots
+
     def partner_working(self) -> bool:
         return self.robot.partner_working()
+
+    def paired_until(self) -> float:
+        return self.robot.paired_until()
 
     def stranded(self, a: OpenAuction) -> bool:
         return self.robot.stranded(a)

@@ -9,6 +9,7 @@ house's (`engine.auction_house`); this part tells the house when a winner is fou
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -169,6 +170,15 @@ class Recovery:
         heard = self.ctx.liveness.last_heard(self.name, name)
         timeout = self.ctx.scenario.protocol.failure_timeout_s
         return name not in self.down and self.env.now - heard <= timeout
+
+    def alive_until(self, name: str) -> float:
+        """When `peer_alive` may turn false unless the peer is heard again or found down (both
+        of which stir my bidder): -inf if it is not alive now."""
+        if not self.peer_alive(name):
+            return -math.inf
+        return self.ctx.liveness.last_heard(self.name, name) + (
+            self.ctx.scenario.protocol.failure_timeout_s
+        )
 
     def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
         """A peer of my type allocated a task (its Close): remembered for adopting its watch."""

@@ -27,6 +27,7 @@ import hashlib
 import json
 import math
 from collections import deque
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -262,27 +263,35 @@ def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_l
     assert not POLICIES["lookahead"].targets_from_list
 
 
-def test_a_policy_below_one_that_answers_per_type_must_answer_again():
-    """Policy 2's excavators bid as Policy 1, so a busy one that sent nothing is not asked
-    again (`targets_from_list_of`); its haulers read their partner. A subclass that chooses
-    targets otherwise must answer again, as for the flag."""
+def test_a_policy_below_one_that_answers_per_robot_must_answer_again():
+    """Policy 2's excavators, and its haulers without a partner, bid as Policy 1, so a busy one
+    that sent nothing is not asked again (`targets_from_list_for`); a hauler with a partner
+    reads it. A subclass that chooses targets otherwise must answer again, as for the flag."""
     coalition = POLICIES["coalition"]
-    assert coalition().targets_from_list_of("excavator")
-    assert not coalition().targets_from_list_of("hauler")
+
+    def view(rtype: str, partner: bool) -> Any:
+        return SimpleNamespace(rtype=rtype, has_partner=lambda: partner)
+
+    assert coalition().targets_from_list_for(view("excavator", True))
+    assert coalition().targets_from_list_for(view("hauler", False))
+    assert not coalition().targets_from_list_for(view("hauler", True))
 
     class NoAnswer(coalition):  # type: ignore[misc,valid-type]
         def bid_targets(self, view: Any, auctions: Any) -> Any:
             return []
 
     class Answers(coalition):  # type: ignore[misc,valid-type]
-        def targets_from_list_of(self, rtype: str) -> bool:
+        def targets_from_list_for(self, view: Any) -> bool:
             return False
+
+        def no_targets_until(self, view: Any) -> float | None:
+            return None
 
         def bid_targets(self, view: Any, auctions: Any) -> Any:
             return []
 
     with pytest.raises(
-        ValueError, match="NoAnswer: overrides bid_targets but inherits targets_from_list_of"
+        ValueError, match="NoAnswer: overrides bid_targets but inherits targets_from_list_for"
     ):
         check_policy(NoAnswer)
     check_policy(Answers)

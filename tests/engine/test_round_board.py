@@ -44,14 +44,14 @@ def test_at_scale_most_later_rounds_visit_nobody(monkeypatch: pytest.MonkeyPatch
     visits = {"rounds": 0, "heard": 0, "visited": 0}
     sparse = engine.round_board.RoundBoard.deliver_sparse
 
-    def counted(self, msg, audience, visit):  # type: ignore[no-untyped-def]
+    def counted(self, msg, audience, visit, now):  # type: ignore[no-untyped-def]
         def counting(name: str) -> None:
             visits["visited"] += 1
             visit(name)
 
         visits["rounds"] += 1
         visits["heard"] += len(audience - {msg.sender})
-        sparse(self, msg, audience, counting)
+        sparse(self, msg, audience, counting, now)
 
     monkeypatch.setattr(engine.round_board.RoundBoard, "deliver_sparse", counted)
     m = Mission(_scenario(3, "silent"), 0, "fcfs", "straight")
@@ -59,6 +59,31 @@ def test_at_scale_most_later_rounds_visit_nobody(monkeypatch: pytest.MonkeyPatch
     assert m.status == "completed"
     assert visits["rounds"] > 300
     assert visits["visited"] < 0.1 * visits["heard"], visits
+
+
+def test_a_paired_hauler_is_left_be_until_its_partner_could_be_declared_silent(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Policy 2: a paired hauler whose partner works has no targets, whatever the auctions
+    (`Policy.no_targets_until`). The board leaves it be until its partner's last hearing plus
+    the failure timeout, then stirs it (`RoundBoard._wake_due`); checked as above, with
+    excavators failing abruptly and gracefully so that partners really fall silent."""
+    monkeypatch.setattr(engine.round_board, "CHECK", True)
+    woken: list[str] = []
+    wake_due = engine.round_board.RoundBoard._wake_due
+
+    def counted(self, now):  # type: ignore[no-untyped-def]
+        before = set(self._attentive)
+        wake_due(self, now)
+        woken.extend(self._attentive - before)
+
+    monkeypatch.setattr(engine.round_board.RoundBoard, "_wake_due", counted)
+    m = Mission(_scenario(3, "silent"), 0, "coalition", "straight")
+    for t, name, mode in ((400.0, "excavator-1", "abrupt"), (900.0, "excavator-2", "graceful")):
+        m.apply({"t": t, "kind": "disable_robot", "args": {"name": name, "mode": mode}})
+    m.run()
+    assert m.status == "completed"
+    assert any(name.startswith("hauler") for name in woken)
 
 
 def test_a_lossy_bus_keeps_no_board() -> None:
