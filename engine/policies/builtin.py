@@ -176,13 +176,9 @@ class RelaxedCoalitions(AnticipatoryCoalitions):
     label, colour = "Coalitions (relaxed)", "#cc79a7"
     description = "Policy 2, but a paired hauler with an idle partner carries for anyone"
 
-    def targets_from_list_for(self, view: RobotView) -> bool:
-        return view.rtype != "hauler" or not view.has_partner()
-
-    def no_targets_until(self, view: RobotView) -> float | None:
-        if view.rtype == "hauler" and view.partner_working():
-            return view.paired_until()
-        return None
+    # Policy 2's answers hold: targets differ from its only while a partner has no site
+    targets_from_list_for = AnticipatoryCoalitions.targets_from_list_for
+    no_targets_until = AnticipatoryCoalitions.no_targets_until
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         if view.rtype == "hauler" and view.paired() and view.partner_working():
