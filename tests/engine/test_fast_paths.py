@@ -27,6 +27,8 @@ import hashlib
 import json
 import math
 from collections import deque
+from collections.abc import Iterator
+from contextlib import contextmanager
 from types import SimpleNamespace
 from typing import Any
 
@@ -105,6 +107,14 @@ def test_shortcuts_change_nothing(seed, policy, bus, busy_bid, actions):
     )
     plan = [(t, kind, arg) for t, (kind, arg) in sorted(actions, key=lambda a: a[0])]
     fast = _play(scenario, seed, policy, plan)
+    with _plain_engine():
+        plain = _play(scenario, seed, policy, plan)
+    assert fast == plain
+
+
+@contextmanager
+def _plain_engine() -> Iterator[None]:
+    """Every shortcut above switched back to its plain form."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(EmbeddedBus, "_audience", lambda self, msg: list(self._subscribers.items()))
         mp.setattr(EmbeddedBus, "_everyone_now", lambda self: list(self._subscribers.items()))
@@ -115,7 +125,21 @@ def test_shortcuts_change_nothing(seed, policy, bus, busy_bid, actions):
         mp.setattr(Bidder, "forget_auction", _plain_forget)
         mp.setattr(Robot, "first_look", lambda self, msg: False)
         mp.setattr(EmbeddedBus, "rounds_on_board", False)
-        plain = _play(scenario, seed, policy, plan)
+        yield
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_switches_between_policy_2_and_policy_4_change_nothing(seed: int) -> None:
+    """Later rounds leave Policy 2's quiet haulers and excavators be, so those do not look at
+    their situation then; Policy 4's bids read whether it changed since their last look
+    (`BidMemory.changed`). Switching back and forth at scale 3 gives the plain engine's run."""
+    scenario = reference_scenario().scaled(3)
+    protocol = scenario.protocol.model_copy(update={"busy_bid": "silent"})
+    scenario = scenario.model_copy(update={"protocol": protocol})
+    plan = [(600.0 * k, "policy", ("lookahead", "coalition")[k % 2]) for k in range(1, 6)]
+    fast = _play(scenario, seed, "coalition", plan)
+    with _plain_engine():
+        plain = _play(scenario, seed, "coalition", plan)
     assert fast == plain
 
 
