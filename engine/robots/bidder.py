@@ -20,7 +20,7 @@ from engine.bidding import BidMemory, Bids, OpenAuction, refused_all
 from engine.geometry import Point
 from engine.messages import Ack, Award, Bid, Heartbeat, TaskType
 from engine.policies import PendingAward, Policy
-from engine.robots.pricing import Pricing
+from engine.robots.pricing import PeerWatch, Pricing
 from engine.round_board import Rounds
 
 if TYPE_CHECKING:
@@ -37,7 +37,7 @@ _OPENING = attrgetter("order")
 class BiddingRobot(Protocol):
     """What the bidding part needs of its robot: who and where it is, what it holds, and the
     type's own answers to the policy (`free_at`, and for coalitions `paired`,
-    `partner_working`, `paired_until`, `stranded`)."""
+    `partner_working`, `stranded`)."""
 
     name: str
     rtype: str
@@ -51,6 +51,9 @@ class BiddingRobot(Protocol):
     partner: str | None
 
     @property
+    def recovery(self) -> PeerWatch: ...
+
+    @property
     def capability(self) -> TaskType | None: ...
     @property
     def participating(self) -> bool: ...
@@ -61,7 +64,6 @@ class BiddingRobot(Protocol):
     def free_at(self) -> tuple[float, Point]: ...
     def paired(self) -> bool: ...
     def partner_working(self) -> bool: ...
-    def paired_until(self) -> float: ...
     def stranded(self, a: OpenAuction) -> bool: ...
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING, Any
 
 import simpy
@@ -310,9 +309,6 @@ class Excavator(Robot):
 
     def partner_working(self) -> bool:
         return False
-
-    def paired_until(self) -> float:
-        return -math.inf
 
     def stranded(self, a: OpenAuction) -> bool:
         return False

@@ -235,9 +235,6 @@ class Hauler(Robot):
     def partner_working(self) -> bool:
         return self.partnership.site is not None
 
-    def paired_until(self) -> float:
-        return self.partnership.paired_until()
-
     def stranded(self, a: OpenAuction) -> bool:
         """No unpaired hauler is alive to take this transport (paired haulers take only their
         partner's minerals, and a partner never bids), as far as I know.

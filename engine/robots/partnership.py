@@ -10,7 +10,6 @@ longer lists a site.
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING, Protocol
 
 from engine.geometry import Point
@@ -60,14 +59,6 @@ class Partnership:
             and robot.ctx.policy.coalitions()
             and robot.recovery.peer_alive(partner)
         )
-
-    def paired_until(self) -> float:
-        """`RobotView.paired_until`."""
-        robot = self.robot
-        partner = robot.partner
-        if partner is None or not robot.ctx.policy.coalitions():
-            return -math.inf
-        return robot.recovery.alive_until(partner)
 
     def following(self) -> bool:
         """Paired, and the partner has a site: follow it there."""

@@ -16,16 +16,24 @@ if TYPE_CHECKING:
     from engine.robots.mobility import Mobility
 
 
+class PeerWatch(Protocol):
+    """What pricing reads of a robot's view of its peers (`Recovery`)."""
+
+    def alive_until(self, name: str) -> float: ...
+
+
 class PricedRobot(Protocol):
     """What pricing needs of its robot: where it is and the type's own answers."""
 
     mobility: Mobility
     partner: str | None
 
+    @property
+    def recovery(self) -> PeerWatch: ...
+
     def free_at(self) -> tuple[float, Point]: ...
     def paired(self) -> bool: ...
     def partner_working(self) -> bool: ...
-    def paired_until(self) -> float: ...
     def stranded(self, a: OpenAuction) -> bool: ...
 
 
@@ -46,7 +54,10 @@ class Pricing:
         return self.robot.partner_working()
 
     def paired_until(self) -> float:
-        return self.robot.paired_until()
+        partner = self.robot.partner
+        if partner is None or not self.ctx.policy.coalitions():
+            return -math.inf
+        return self.robot.recovery.alive_until(partner)
 
     def stranded(self, a: OpenAuction) -> bool:
         return self.robot.stranded(a)
