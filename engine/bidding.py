@@ -49,8 +49,9 @@ class RobotView(Protocol):
         ...
 
     def has_partner(self) -> bool:
-        """My coalition partner (Policy 2's pairing by name) is on the team, alive or not: it
-        changes only when a robot joins."""
+        """A coalition partner by name (Policy 2's pairing), on the team or not: fixed for the
+        robot's life. (Whether it is on the team is not: in field mode a robot learns its
+        peers as it hears them, and a quiet noted before would outlive the answer.)"""
         ...
 
     def partner_working(self) -> bool:

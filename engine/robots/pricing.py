@@ -47,8 +47,7 @@ class Pricing:
         return self.robot.paired()
 
     def has_partner(self) -> bool:
-        partner = self.robot.partner
-        return partner is not None and partner in self.ctx.robots
+        return self.robot.partner is not None
 
     def partner_working(self) -> bool:
         return self.robot.partner_working()
