@@ -50,8 +50,8 @@ class RobotView(Protocol):
 
     def has_partner(self) -> bool:
         """A coalition partner by name (Policy 2's pairing), on the team or not: fixed for the
-        robot's life. (Whether it is on the team is not: in field mode a robot learns its
-        peers as it hears them, and a quiet noted before would outlive the answer.)"""
+        robot's life, so a quiet noted on it holds (whether the partner is on the team is
+        not: in field mode a robot learns its peers as it hears them)."""
         ...
 
     def partner_working(self) -> bool:

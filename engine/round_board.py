@@ -169,12 +169,8 @@ class RoundBoard:
         rounds: Rounds,
         only_notes: OnlyNotes,
     ) -> None:
-        """A robot subscribed (again): a stranger to every open auction it can hear. A
-        newcomer stirs everyone: it may be someone's coalition partner
-        (`Policy.targets_from_list_for`)."""
-        if name not in self._order:
-            self._order[name] = len(self._order)
-            self.stir_all()
+        """A robot subscribed (again): a stranger to every open auction it can hear."""
+        self._order.setdefault(name, len(self._order))
         self._member[name] = (rtype, hears)
         self._rounds[name] = rounds
         self._only_notes[name] = only_notes

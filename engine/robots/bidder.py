@@ -358,7 +358,6 @@ class Bidder(Pricing):
             and self._quiet_policy is policy
             and not self._every_round
             and not self.has_room()
-            and policy.targets_from_list_for(self)  # as when noted (unless a partner joined)
         ):
             return math.inf
         until = policy.no_targets_until(self)

@@ -174,11 +174,11 @@ class Recovery:
     def alive_until(self, name: str) -> float:
         """When `peer_alive` may turn false unless the peer is heard again or found down (both
         of which stir my bidder): -inf if it is not alive now."""
-        if not self.peer_alive(name):
+        heard = self.ctx.liveness.last_heard(self.name, name)
+        timeout = self.ctx.scenario.protocol.failure_timeout_s
+        if name in self.down or self.env.now - heard > timeout:  # `peer_alive`, inverted
             return -math.inf
-        return self.ctx.liveness.last_heard(self.name, name) + (
-            self.ctx.scenario.protocol.failure_timeout_s
-        )
+        return heard + timeout
 
     def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
         """A peer of my type allocated a task (its Close): remembered for adopting its watch."""
