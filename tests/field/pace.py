@@ -1,17 +1,46 @@
 """A field test's wall-clock speed, chosen for the CPU the machine has to spare.
 
 A field mission runs against the wall clock: at 100x, the protocol's 30 s failure timeout is
-0.3 s of wall time. On a machine already busy (two CPU hogs on two cores) the same speed
-starved mission control and the agents alike, and the test measured the machine, not the
-protocol. So a test measures how busy the machine is before it starts its agents and slows
-the mission down, by half for each core's worth of other work, to a quarter at most: what is
-checked is unchanged, only the pace.
+0.3 s of wall time. A machine that cannot keep up with the fleet's messages reads heartbeats
+late, every robot declares its peers failed, the takeovers and auctions again add messages,
+and the mission seizes up: the test then measures the machine, not the protocol. Two things
+make a machine unable to keep up, and both are measured before a test starts its agents:
+
+- other work already running (`busy_cores`: two CPU hogs on two cores);
+- a slow core (`message_cost_s`: one protocol message as every agent pays for it, encoded,
+  signed, verified and decoded; on the same 2-core machine type it has ranged from about
+  0.13 to over 0.2 ms, the engine's benchmarks from 2.9 to 4.9 s over a day).
+
+The fleet's CPU at a speed is then `speed * FLEET_LOAD * message_cost_s()` cores, and the
+speed is halved, to a quarter at most, until that fits in the spare cores with headroom
+(`HEADROOM`). What is checked is unchanged, only the pace.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import time
+
+from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
+
+# Messages a second of mission time that the reference team's processes handle between
+# them, counted in `message_cost_s` units. Measured: at 100x, twelve agents and the world
+# kept 2.6 cores busy where one such message cost 0.2 ms (2.6 / (100 * 0.0002) = 130).
+FLEET_LOAD = 130.0
+# The share of the spare cores the fleet may take: at 100x on a machine where it needed 1.0
+# of them, heartbeats came late enough to set off the collapse above; at 50x (0.65) it did not.
+HEADROOM = 0.7
+SLOWEST = 4  # a quarter of the nominal speed at most: a test's length stays bounded
+
+_HEARTBEAT = {
+    "v": 1,
+    "sender": "hauler-1",
+    "t": 1234.5,
+    "state": "idle",
+    "route": [[i * 0.5, i * 0.25] for i in range(60)],  # ~2 KB, as a heartbeat with its route
+    "tasks": ["excavate@12.500,40.250"] * 3,
+}
 
 
 def _cpu_times() -> tuple[float, float]:
@@ -35,11 +64,33 @@ def busy_cores(window_s: float = 1.0) -> float:
     return (1.0 - (idle1 - idle0) / spent) * (os.cpu_count() or 1)
 
 
+def message_cost_s(messages: int = 100, tries: int = 5) -> float:
+    """Seconds this machine takes, now, for one protocol message as the agents handle it
+    (the best of `tries`: the floor, not a moment's noise)."""
+    key = Ed25519PrivateKey.generate()
+    public = key.public_key()
+    best = float("inf")
+    for _ in range(tries):
+        start = time.perf_counter()
+        for _ in range(messages):
+            body = json.dumps(_HEARTBEAT).encode()
+            public.verify(key.sign(body), body)
+            json.loads(body)
+        best = min(best, time.perf_counter() - start)
+    return best / messages
+
+
 def paced(nominal: float) -> float:
-    """`nominal` on an idle machine; half with a core's worth of other work, a quarter with
-    two or more."""
-    busy = busy_cores()
-    factor = 1 if busy < 0.5 else 2 if busy < 1.5 else 4
+    """The fastest of `nominal`, its half and its quarter at which the fleet's CPU fits the
+    machine's spare cores with headroom (the quarter if none does)."""
+    spare = max((os.cpu_count() or 1) - busy_cores(), 0.25)
+    cost = message_cost_s()
+    factor = 1
+    while factor < SLOWEST and nominal / factor * FLEET_LOAD * cost > HEADROOM * spare:
+        factor *= 2
     if factor > 1:
-        print(f"field test pace: {busy:.1f} cores busy before it starts: {nominal / factor:g}x")
+        print(
+            f"field test pace: {spare:.1f} cores spare, {cost * 1e3:.2f} ms a message: "
+            f"{nominal / factor:g}x"
+        )
     return nominal / factor
