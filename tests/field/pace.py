@@ -8,8 +8,9 @@ make a machine unable to keep up, and both are measured before a test starts its
 
 - other work already running (`busy_cores`: two CPU hogs on two cores);
 - a slow core (`message_cost_s`: one protocol message as every agent pays for it, encoded,
-  signed, verified and decoded; on the same 2-core machine type it has ranged from about
-  0.13 to over 0.2 ms, the engine's benchmarks from 2.9 to 4.9 s over a day).
+  signed, verified and decoded: 0.19-0.30 ms on one idle machine of this project's type in
+  one afternoon, where the engine's scale-10 benchmark took 4.1-4.9 s against 2.9 s on
+  another of the same type the day before).
 
 The fleet's CPU at a speed is then `speed * FLEET_LOAD * message_cost_s()` cores, and the
 speed is halved, to a quarter at most, until that fits in the spare cores with headroom
@@ -28,8 +29,9 @@ from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 # them, counted in `message_cost_s` units. Measured: at 100x, twelve agents and the world
 # kept 2.6 cores busy where one such message cost 0.2 ms (2.6 / (100 * 0.0002) = 130).
 FLEET_LOAD = 130.0
-# The share of the spare cores the fleet may take: at 100x on a machine where it needed 1.0
-# of them, heartbeats came late enough to set off the collapse above; at 50x (0.65) it did not.
+# The share of the spare cores the fleet may take. Measured on that machine: at 100x the
+# fleet wanted 1.3 times its two cores and seized up as above; at 50x (0.65 of them) the
+# same chaos seed finished.
 HEADROOM = 0.7
 SLOWEST = 4  # a quarter of the nominal speed at most: a test's length stays bounded
 
