@@ -13,8 +13,8 @@ make a machine unable to keep up, and both are measured before a test starts its
   another of the same type the day before).
 
 The fleet's CPU at a speed is then `speed * FLEET_LOAD * message_cost_s()` cores, and the
-speed is halved, to a quarter at most, until that fits in the spare cores with headroom
-(`HEADROOM`). What is checked is unchanged, only the pace.
+speed is lowered step by step (`SLOWER`), to a quarter at most, until that fits in the spare
+cores with headroom (`HEADROOM`). What is checked is unchanged, only the pace.
 """
 
 from __future__ import annotations
@@ -33,7 +33,9 @@ FLEET_LOAD = 130.0
 # fleet wanted 1.3 times its two cores and seized up as above; at 50x (0.65 of them) the
 # same chaos seed finished.
 HEADROOM = 0.7
-SLOWEST = 4  # a quarter of the nominal speed at most: a test's length stays bounded
+# The nominal speed divided by each in turn; a quarter at most, so a test's length stays
+# bounded. Steps finer than halving: a machine just too slow for 50x runs at 33x, not 25x.
+SLOWER = (1.0, 1.5, 2.0, 3.0, 4.0)
 
 _HEARTBEAT = {
     "v": 1,
@@ -83,16 +85,14 @@ def message_cost_s(messages: int = 100, tries: int = 5) -> float:
 
 
 def paced(nominal: float) -> float:
-    """The fastest of `nominal`, its half and its quarter at which the fleet's CPU fits the
-    machine's spare cores with headroom (the quarter if none does)."""
+    """The fastest of `nominal / f` (f in `SLOWER`) at which the fleet's CPU fits the
+    machine's spare cores with headroom (the slowest if none does)."""
     spare = max((os.cpu_count() or 1) - busy_cores(), 0.25)
     cost = message_cost_s()
-    factor = 1
-    while factor < SLOWEST and nominal / factor * FLEET_LOAD * cost > HEADROOM * spare:
-        factor *= 2
-    if factor > 1:
+    fits = [f for f in SLOWER if nominal / f * FLEET_LOAD * cost <= HEADROOM * spare]
+    speed = round(nominal / (fits[0] if fits else SLOWER[-1]), 1)
+    if speed < nominal:
         print(
-            f"field test pace: {spare:.1f} cores spare, {cost * 1e3:.2f} ms a message: "
-            f"{nominal / factor:g}x"
+            f"field test pace: {spare:.1f} cores spare, {cost * 1e3:.2f} ms a message: {speed:g}x"
         )
-    return nominal / factor
+    return speed
