@@ -124,6 +124,9 @@ class Lookahead(EarlyTransports):
     defaults = MappingProxyType(
         {"lead": True, "time_bids": True, "bid_all": True, "queue": {"hauler": 1, "excavator": 1}}
     )
+    # targets are the list (or its earliest); a busy robot's time bids read `changed` only
+    # for auctions it bid a finite utility in, so one that refused every target stays quiet
+    targets_from_list = True
 
     def __init__(self, context: PolicyContext | None = None) -> None:
         super().__init__(context)
@@ -156,6 +159,7 @@ class CentralGreedy(EarlyTransports):
     label, colour = "Central greedy", "#bbbbbb"
     description = "baseline, not decentralized: greedy assignment of free robots to open tasks"
     decentralized = False  # Policy 4's early transport auctions: only the allocation differs
+    targets_from_list = True
 
     def bid_targets(self, view: RobotView, auctions: Sequence[OpenAuction]) -> list[OpenAuction]:
         return list(auctions)

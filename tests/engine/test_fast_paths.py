@@ -40,7 +40,7 @@ from hypothesis import strategies as st
 import engine.robots.bidder
 import engine.tangent_planner
 from engine import POLICIES, Mission, reference_scenario
-from engine.bidding import OpenAuction
+from engine.bidding import BidMemory, OpenAuction, distance_bids, refused_all, time_bids
 from engine.bus import EmbeddedBus
 from engine.geometry import segment_point_distance
 from engine.liveness import HISTORY, Liveness
@@ -284,7 +284,40 @@ def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_l
         check_policy(ByPartner)
     check_policy(Restated)
     assert not POLICIES["coalition"].targets_from_list
-    assert not POLICIES["lookahead"].targets_from_list
+    assert POLICIES["lookahead"].targets_from_list
+
+
+_AUCTIONS = [
+    OpenAuction(f"a{k}", "excavator-1", "transport", (k, 0.0), f"t{k}", k) for k in range(4)
+]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    rule=st.sampled_from([distance_bids, time_bids]),
+    targets=st.lists(st.sampled_from(_AUCTIONS), unique=True, max_size=4),
+    rounds=st.lists(st.integers(0, 3), min_size=4, max_size=4),
+    sent_rounds=st.lists(st.integers(0, 3), min_size=4, max_size=4),
+)
+def test_a_busy_robot_that_refused_every_target_sends_nothing_whatever_changed(
+    rule, targets, rounds, sent_rounds
+):
+    """What `targets_from_list` promises of `bids` (Policy 4 relies on it: its time bids read
+    `BidMemory.changed`): a busy robot that has bid -inf in every target sends nothing, new
+    round or not, its situation changed or not. Then later rounds may leave it be until its
+    list or its bids change."""
+    sent = {a.auction_id: (r, -math.inf) for a, r in zip(_AUCTIONS, sent_rounds, strict=True)}
+    latest = {a.auction_id: r for a, r in zip(_AUCTIONS, rounds, strict=True)}
+    view = SimpleNamespace(eta_to=lambda a: 1.0, cost_to=lambda a: 1.0)
+    for changed in (False, True):
+        mem = BidMemory(busy=True, sent=sent, rounds=latest, changed=changed, every_round=False)
+        assert refused_all(sent, targets)
+        assert rule(view, targets, mem) == []
+    # the promise is about refusals only: one finite bid, withdrawn once the situation changed
+    if targets and rule is time_bids:
+        finite = {**sent, targets[0].auction_id: (latest[targets[0].auction_id], -5.0)}
+        mem = BidMemory(busy=True, sent=finite, rounds=latest, changed=True, every_round=False)
+        assert rule(view, targets, mem) == [(targets[0], latest[targets[0].auction_id], -math.inf)]
 
 
 def test_a_policy_below_one_that_answers_per_robot_must_answer_again():
