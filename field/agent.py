@@ -354,6 +354,11 @@ class Agent(Asking):
             env.step()
         if t > env.now:
             env.run(until=t)  # nothing due: the clock moves on to the wall's time
+            # simpy puts the event that stopped it back at the head of the queue, spent: it is
+            # stepped now, or `env.peek()` reads it as due and the clock loop wakes every
+            # millisecond (it did: ~700 turns a second at 25x, most of an agent's CPU)
+            if env.peek() <= t:
+                env.step()
         # a backlog is worked through a batch per turn, the clock kept between:
         # a robot behind on its messages still heartbeats and keeps its timers
         for msg in bus.inbox.due(limit=DELIVER_PER_TURN):
