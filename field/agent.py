@@ -32,7 +32,7 @@ from engine.scenario import Scenario
 from engine.world import generate_world
 from field.asking import BUSY, QUERY_TIMEOUT_S, AgentError, Asking
 from field.bodies import PeerBody, caller_refused, place_robot, serve_body
-from field.clock import PAUSED_WAIT_S, MissionClock, poll_every
+from field.clock import PAUSED_WAIT_S, MissionClock, advance_to, poll_every
 from field.drain import Drain
 from field.journal import Journal
 from field.journal import serve as serve_journal
@@ -350,15 +350,7 @@ class Agent(Asking):
         away = t - env.now - AWAKE_S * self.clock.speed
         if away > 0:  # this process had no CPU: peers were not silent, I was deaf
             self.ctx.liveness.excuse(self.name, env.now, env.now + away)
-        while env.peek() <= t:
-            env.step()
-        if t > env.now:
-            env.run(until=t)  # nothing due: the clock moves on to the wall's time
-            # simpy puts the event that stopped it back at the head of the queue, spent: it is
-            # stepped now, or `env.peek()` reads it as due and the clock loop wakes every
-            # millisecond (it did: ~700 turns a second at 25x, most of an agent's CPU)
-            if env.peek() <= t:
-                env.step()
+        advance_to(env, t)
         # a backlog is worked through a batch per turn, the clock kept between:
         # a robot behind on its messages still heartbeats and keeps its timers
         for msg in bus.inbox.due(limit=DELIVER_PER_TURN):

@@ -134,6 +134,22 @@ class MissionClock:
             return True
 
 
+def advance_to(env: Any, t: float) -> None:
+    """A robot's simpy environment brought to mission time `t`: every event due by then
+    processed, its clock at `t` (if later), and `env.peek()` the next event still to come.
+
+    simpy's `run(until=t)` stops by raising from the callback of an event it scheduled at
+    `t`, and puts that event back at the head of its queue, spent; it is stepped here, or
+    `peek()` reads it as due and an agent's clock loop waits its 1 ms floor every turn (it
+    did: ~700 turns a second per agent, whatever the speed)."""
+    while env.peek() <= t:
+        env.step()
+    if t > env.now:
+        env.run(until=t)  # nothing due: the clock moves on to the wall's time
+        if env.peek() <= t:
+            env.step()
+
+
 def poll_every(clock: MissionClock, otherwise: float) -> float:
     """How often (wall) to ask the world's status: often while paused or just after a change
     (the status answer carries the clock), `otherwise` else."""

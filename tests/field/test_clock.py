@@ -13,8 +13,9 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
+import simpy
 
-from field.clock import ClockState, MissionClock, clock_of, poll_every
+from field.clock import ClockState, MissionClock, advance_to, clock_of, poll_every
 from field.transport import open_session
 from field.world_service import Paused
 from tests.field.test_world_service import Team, _dig
@@ -188,3 +189,28 @@ def test_the_world_does_not_change_while_paused(team: Team) -> None:
     w.set_clock(paused=False)
     team.ask("scout-1", "scan", cell=3, by="scout-1")
     assert w.status()["scanned"] == before[2] + 1 and w.clock.now() > t
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_advance_to_leaves_the_next_event_to_come_at_the_head(seed: int) -> None:
+    """An agent's clock loop waits until `env.peek()`: after `advance_to(t)` every event due
+    by `t` has happened, the clock is at `t`, and the head is an event still to come (not
+    the spent one simpy's `run(until)` puts back, which made every agent spin at 1 ms)."""
+    rng = random.Random(seed)
+    env = simpy.Environment()
+    fired: list[float] = []
+
+    def timer(at: float) -> Iterator[Any]:
+        yield env.timeout(at)
+        fired.append(env.now)
+
+    times = sorted(rng.uniform(0, 100) for _ in range(rng.randint(0, 12)))
+    for at in times:
+        env.process(timer(at))
+    t = 0.0
+    for _ in range(15):
+        t += rng.choice([0.0, rng.uniform(0, 1), rng.uniform(0, 20)])
+        advance_to(env, t)
+        assert env.now == t
+        assert fired == [x for x in times if x <= t]
+        assert env.peek() > t
