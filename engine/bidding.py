@@ -121,8 +121,11 @@ def time_bids(view: RobotView, targets: Sequence[OpenAuction], mem: BidMemory) -
     so a winner is rarely one that must decline. A busy robot's -inf goes once per auction.
     """
     out: Bids = []
+    busy_once = mem.busy and not mem.every_round
     for a in targets:
         prev = mem.sent.get(a.auction_id)
+        if busy_once and prev is not None and prev[1] == -math.inf:
+            continue  # refused already: nothing more to say while busy (the round not read)
         rnd = mem.rounds.get(a.auction_id, 0)
         fresh = prev is None or prev[0] != rnd
         if not (fresh or mem.changed):
