@@ -125,7 +125,7 @@ def test_a_real_field_runs_poses_are_stored_and_served(tmp_path: Path) -> None:
 
 
 def _real_run(server: LiveServer, api: httpx.Client) -> None:
-    body = {"seed": 0, "policy": "nearest", "speed": paced(100.0, "nearest"), "field": True}
+    body = {"seed": 0, "policy": "nearest", "speed": paced(100.0), "field": True}
     r = api.post("/api/missions", json=body)
     assert r.status_code == 201, r.text
     mid = r.json()["id"]

@@ -41,7 +41,7 @@ def test_field_mission_on_the_dashboard(
 def _field_mission_on_the_dashboard(
     page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
 ) -> None:
-    mission = start_mission(policy="nearest", seed=0, speed=paced(50.0, "nearest"), field=True)
+    mission = start_mission(policy="nearest", seed=0, speed=paced(50.0), field=True)
     mid = mission["id"]
     open_live(page, mid)
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")

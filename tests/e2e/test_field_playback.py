@@ -69,7 +69,7 @@ def test_scrub_a_stopped_field_run(
 
     page.on("response", note)
     with one_field_mission_at_a_time():
-        mission = start_mission(policy="nearest", seed=0, speed=paced(100.0, "nearest"), field=True)
+        mission = start_mission(policy="nearest", seed=0, speed=paced(100.0), field=True)
         mid = mission["id"]
 
         def reported() -> bool:

@@ -12,10 +12,9 @@ make a machine unable to keep up, and both are measured before a test starts its
   one afternoon, where the engine's scale-10 benchmark took 4.1-4.9 s against 2.9 s on
   another of the same type the day before).
 
-The fleet's CPU at a speed is then `speed * load * message_cost_s()` cores (`load` by
-policy: `POLICY_LOAD`, else `FLEET_LOAD`), and the speed is lowered step by step (`SLOWER`),
-to a quarter at most, until that fits in the spare cores with headroom (`HEADROOM`). What is
-checked is unchanged, only the pace.
+The fleet's CPU at a speed is then `speed * FLEET_LOAD * message_cost_s()` cores, and the
+speed is lowered step by step (`SLOWER`), to a quarter at most, until that fits in the spare
+cores with headroom (`HEADROOM`). What is checked is unchanged, only the pace.
 """
 
 from __future__ import annotations
@@ -27,14 +26,9 @@ import time
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 
 # Messages a second of mission time that the reference team's processes handle between
-# them, counted in `message_cost_s` units: the fleet's cores / (speed * cost). Measured with
-# `regolith fleet run` (seed 0, the agents' and the world's CPU over 15 s, one message
-# 0.19 ms): Policy 4 prices every auction it hears (0.71 cores at 25x, 1.19 at 50x: 123-147);
-# FCFS and Nearest bid in one auction at a time (1.40 and 1.30 cores at 100x: 72 and 67).
-# A test whose policy is not in `POLICY_LOAD` (the chaos test draws one and switches) is
-# paced for the heaviest.
+# them, counted in `message_cost_s` units. Measured: at 100x, twelve agents and the world
+# kept 2.6 cores busy where one such message cost 0.2 ms (2.6 / (100 * 0.0002) = 130).
 FLEET_LOAD = 130.0
-POLICY_LOAD = {"fcfs": 80.0, "nearest": 80.0}
 # The share of the spare cores the fleet may take. Measured on that machine: at 100x the
 # fleet wanted 1.3 times its two cores and seized up as above; at 50x (0.65 of them) the
 # same chaos seed finished.
@@ -90,13 +84,12 @@ def message_cost_s(messages: int = 100, tries: int = 5) -> float:
     return best / messages
 
 
-def paced(nominal: float, policy: str | None = None) -> float:
-    """The fastest of `nominal / f` (f in `SLOWER`) at which the fleet's CPU under `policy`
-    (None: any) fits the machine's spare cores with headroom (the slowest if none does)."""
+def paced(nominal: float) -> float:
+    """The fastest of `nominal / f` (f in `SLOWER`) at which the fleet's CPU fits the
+    machine's spare cores with headroom (the slowest if none does)."""
     spare = max((os.cpu_count() or 1) - busy_cores(), 0.25)
     cost = message_cost_s()
-    load = POLICY_LOAD.get(policy or "", FLEET_LOAD)
-    fits = [f for f in SLOWER if nominal / f * load * cost <= HEADROOM * spare]
+    fits = [f for f in SLOWER if nominal / f * FLEET_LOAD * cost <= HEADROOM * spare]
     speed = round(nominal / (fits[0] if fits else SLOWER[-1]), 1)
     if speed < nominal:
         print(

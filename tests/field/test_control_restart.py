@@ -266,7 +266,7 @@ def test_a_field_mission_outlives_its_servers(tmp_path: Path, seed: int) -> None
     link: dict[str, Any] | None = None
     try:
         with one_field_mission_at_a_time(), srv.api() as api:
-            base = paced(50, "nearest")
+            base = paced(50)
             res = api.post(
                 "/missions", json={"policy": "nearest", "seed": seed, "speed": base, "field": True}
             )

@@ -32,7 +32,7 @@ def fleet() -> Iterator[Fleet]:
 
 
 def _fleet() -> Iterator[Fleet]:
-    f = Fleet(reference_scenario(), 0, "nearest", paced(SPEED, "nearest"))
+    f = Fleet(reference_scenario(), 0, "nearest", paced(SPEED))
     try:
         yield f
     finally:

@@ -35,7 +35,7 @@ haulers = 1
 def test_fleet_run_prints_a_summary_and_shows_progress_on_a_terminal(tmp_path: Path) -> None:
     (tmp_path / "tiny.toml").write_text(TINY)
     cmd = [sys.executable, "-c", "from app.cli import main; main()", "fleet", "run"]
-    speed = f"{paced(100.0, 'nearest'):g}"
+    speed = f"{paced(100.0):g}"
     cmd += ["--policy", "nearest", "--speed", speed, "--scenario", str(tmp_path / "tiny.toml")]
     main, tty = pty.openpty()
     try:

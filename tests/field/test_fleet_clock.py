@@ -35,7 +35,7 @@ RATE_SIM_S = 300.0
 @pytest.fixture
 def fleet() -> Iterator[Fleet]:
     with one_field_mission_at_a_time():
-        f = Fleet(reference_scenario(), 0, "nearest", paced(SPEED, "nearest"))
+        f = Fleet(reference_scenario(), 0, "nearest", paced(SPEED))
         try:
             yield f
         finally:

@@ -103,7 +103,7 @@ def _attacked(live: LiveServer, tmp_path: Path) -> None:
         other = api.post("/api/missions", json={"seed": 5, "speed": 5}).json()["id"]
         res = api.post(
             "/api/missions",
-            json={"policy": "nearest", "seed": 0, "speed": paced(50.0, "nearest"), "field": True},
+            json={"policy": "nearest", "seed": 0, "speed": paced(50.0), "field": True},
         )
         assert res.status_code == 201, res.text
         mid = res.json()["id"]
