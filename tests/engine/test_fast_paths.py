@@ -300,8 +300,8 @@ _AUCTIONS = [
     sent_rounds=st.lists(st.integers(0, 3), min_size=4, max_size=4),
 )
 def test_a_busy_robot_that_refused_every_target_sends_nothing_whatever_changed(
-    rule, targets, rounds, sent_rounds
-):
+    rule: Any, targets: list[OpenAuction], rounds: list[int], sent_rounds: list[int]
+) -> None:
     """What `targets_from_list` promises of `bids` (Policy 4 relies on it: its time bids read
     `BidMemory.changed`): a busy robot that has bid -inf in every target sends nothing, new
     round or not, its situation changed or not. Then later rounds may leave it be until its
