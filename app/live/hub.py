@@ -87,17 +87,12 @@ class Viewer:
         self.frame_at = time.perf_counter()
         self._wake.set()
 
-    def push_last(self, message: Json, text: str) -> None:
-        """A mission's last frame, queued in order (never merged away): with any unsent one."""
-        if self.want_full:
-            self.want_full = False
-            self.frame = None
-            text = encode({"type": "frame", "wall": message["wall"], **self.stream.full()})
-        elif self.frame is not None:
-            self.frame.add(message, self.stream)
-            text = encode(self.frame.final(self.stream))
-            self.frame = None
-        self.push(text)
+    def flush_frame(self) -> None:
+        """Queue the unsent frame (or the full one asked for) in order with the messages: what
+        is published next must not overtake it."""
+        text = self._next_frame()
+        if text is not None:
+            self.push(text)
 
     def resync(self) -> None:
         """The client lost track (a gap in `seq`): its next frame is a full one."""
@@ -158,24 +153,27 @@ class Hub:
             for v in self.viewers:
                 v.push(text)
 
-    def publish_frame(self, frame: dict[str, Any], last: bool = False) -> None:
+    def publish_frame(
+        self, frame: dict[str, Any], last: bool = False, ordered: bool = False
+    ) -> None:
         """The delta from the last frame to the engine's `frame`, stamped with the server's
         wall clock so clients can measure delay; nothing if nothing changed.
 
-        The `last` frame of a mission is queued like an event: it must not be dropped.
+        An `ordered` frame is queued like an event, merged with any unsent delta: a message
+        published next must not overtake it (the moment a mission paused comes before the word
+        "paused"). The `last` frame of a mission is ordered, and sent even if nothing changed:
+        it must not be dropped.
         """
         delta = self.stream.advance(frame)
-        if delta is None and not last:
-            return
-        if self.viewers:
+        if self.viewers and (delta is not None or last):
             body = delta if delta is not None else {**self.stream.full()}
             message = {"type": "frame", "wall": time.time(), **body}
             text = encode(message)
             for v in self.viewers:
-                if last:
-                    v.push_last(message, text)
-                else:
-                    v.push_frame(message, text)
+                v.push_frame(message, text)
+        if last or ordered:
+            for v in self.viewers:
+                v.flush_frame()
 
     def sync(self, frame: dict[str, Any]) -> Json:
         """Bring the stream up to `frame` (its delta goes to the current viewers) and return

@@ -183,6 +183,7 @@ class MissionRunner:
         if is_field(lm.mission):
             lm.mission.pause()
         lm.paused = True
+        self._publish_frame(lm, ordered=True)  # what it was at the pause, before "paused"
         lm.hub.publish(lm.status_message())
         return float(lm.mission.now)
 
@@ -392,6 +393,18 @@ class MissionRunner:
             self._write(lm)
             self.stepper.wake()
 
+    def _publish_frame(self, lm: LiveMission, ordered: bool = False) -> None:
+        """`lm`'s frame to its viewers if its time moved since the last (`Hub.publish_frame`);
+        a mission whose engine fails to give one is quarantined."""
+        try:
+            if lm.finishing or not lm.hub.viewers:
+                return
+            if lm.mission.now != lm.last_frame_t or ordered:
+                lm.last_frame_t = float(lm.mission.now)
+                lm.hub.publish_frame(lm.mission.frame(), ordered=ordered)
+        except Exception as exc:
+            self.quarantine(lm, exc)
+
     async def _tick_forever(self) -> None:
         while True:
             await asyncio.sleep(TICK_S)
@@ -410,10 +423,4 @@ class MissionRunner:
             await asyncio.sleep(delay)
             with self.gate:
                 for lm in list(self.live.values()):
-                    try:
-                        if lm.finishing or not lm.hub.viewers or lm.mission.now == lm.last_frame_t:
-                            continue
-                        lm.last_frame_t = float(lm.mission.now)
-                        lm.hub.publish_frame(lm.mission.frame())
-                    except Exception as exc:
-                        self.quarantine(lm, exc)
+                    self._publish_frame(lm)

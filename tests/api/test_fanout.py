@@ -95,6 +95,42 @@ def test_ordered_messages_keep_order_and_unsent_frames_are_merged() -> None:
     assert all("wall" in m for m in ws.sent if m["type"] == "frame")
 
 
+def test_an_ordered_frame_is_not_overtaken_by_the_message_after_it() -> None:
+    """A pause: the viewer told "paused" has already seen the mission at the pause (its
+    counters), even with a delta unsent before it, or none to send at all."""
+
+    async def scenario() -> FakeSocket:
+        hub = Hub(max_queue=100)
+        ws = FakeSocket()
+        viewer = hub.join(ws, json.dumps({"type": "snapshot"}))  # type: ignore[arg-type]
+        hub.publish_frame(_frame(1, x=1.0))  # unsent when the pause comes
+        hub.publish_frame(_frame(2, x=2.0), ordered=True)
+        hub.publish({"type": "status", "n": 1})
+        hub.publish_frame(_frame(3, x=3.0))  # unsent, and nothing new at the next pause
+        hub.publish_frame(_frame(3, x=3.0), ordered=True)
+        hub.publish({"type": "status", "n": 2})
+        hub.publish_frame(_frame(3, x=3.0), ordered=True)  # nothing unsent: nothing to send
+        hub.publish({"type": "status", "n": 3})
+        task = asyncio.create_task(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
+        await ws.wait_sent(6)
+        assert _drained(viewer)
+        task.cancel()
+        return ws
+
+    ws = _run(scenario())
+    kinds = [(m["type"], m.get("n", m.get("t"))) for m in ws.sent]
+    assert kinds == [
+        ("snapshot", None),
+        ("frame", 2),
+        ("status", 1),
+        ("frame", 3),
+        ("status", 2),
+        ("status", 3),
+    ]
+    assert ws.sent[1]["counters"] == {"sites_found": 2}  # the two deltas as one
+    assert ws.sent[3]["counters"] == {"sites_found": 3}
+
+
 def test_a_viewer_that_stops_reading_is_dropped_and_others_are_not_slowed() -> None:
     async def scenario() -> tuple[FakeSocket, FakeSocket, Hub]:
         hub = Hub(max_queue=50)

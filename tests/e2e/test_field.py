@@ -97,6 +97,9 @@ def _field_mission_on_the_dashboard(
     paused = api.get(f"/missions/{mid}").json()
     assert paused["status"] == "paused", paused
     t0 = paused["sim_time"]
+    # the frame of the pause moment (the world's count at the pause) may come after the
+    # answer that said "paused": a delivery carried out just before it is counted there
+    wait_for(page, f"window.__regolith.t >= {t0} - 1e-6", timeout=30)
     delivered = page.evaluate("window.__regolith.lastCounters.minerals_delivered")
     start = time.monotonic()
     while time.monotonic() - start < max(2.0, 150.0 / pace):  # ~4 deliveries' worth
