@@ -204,8 +204,8 @@ class WorldHandle:
         if view is None:
             return False
         with self._lock:
-            self.world.show(view)
-            self._agents(view["agents"])
+            if self.world.show(view):
+                self._agents(view["agents"])
         return True
 
     def _agents(self, agents: dict[str, Any]) -> None:

@@ -110,6 +110,7 @@ class WorldService:
         self.heard: dict[str, float] = {}  # robot -> mission time it was last heard
         self.revealed: dict[str, set[str]] = {}  # robot -> the sites the world showed it
         self.queries = 0
+        self.views = 0  # numbers each view: a later one was read later (`WorldView.show`)
         # requests from members that they may not make, or cannot be carried out
         self.refusals = Rejections(f"world service {mission}")
         self._lock = threading.Lock()
@@ -374,7 +375,9 @@ class WorldService:
     def view(self) -> dict[str, Any]:
         """What mission control shows of the world, read at one instant (`field.world_process`)."""
         with self._lock:
+            self.views += 1
             return {
+                "seq": self.views,
                 "status": self.status(),
                 "picture": self.terrain.picture(),
                 "minerals_in": self._minerals(),

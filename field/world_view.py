@@ -117,8 +117,15 @@ class WorldView:
         self.late = 0  # queries the world skipped: their askers had stopped waiting
         self.dropped: dict[str, Any] = {}  # frames the world's process dropped, as it counts
         self.last: dict[str, Any] = {}
+        self.shown: tuple[int, int] = (-1, -1)  # (world's life, view's number) last shown
 
-    def show(self, view: dict[str, Any]) -> None:
+    def show(self, view: dict[str, Any]) -> bool:
+        """Show `view` unless one read later is shown already (two askers' answers can
+        cross: the poller's, read before a pause, after the pause's own); True if shown."""
+        stamp = (int(view.get("agents", {}).get("world_gen", 0)), int(view.get("seq", 0)))
+        if stamp <= self.shown:
+            return False
+        self.shown = stamp
         self.terrain.show(view)
         self.policy = str(view["policy"])
         self.clock.adopt(view["clock"])
@@ -128,6 +135,7 @@ class WorldView:
         self.late = int(view.get("late") or 0)
         self.dropped = dict(view.get("dropped") or {})
         self.last = view
+        return True
 
     def now(self) -> float:
         return self.clock.now()

@@ -21,6 +21,7 @@ from field.trust import Authority, Certificate, Sealer
 from field.wire import body_key, encode_json
 from field.world_rules import Refused
 from field.world_service import WorldService
+from field.world_view import WorldView
 
 MISSION = "mtest-once"
 
@@ -212,5 +213,29 @@ def test_a_dig_asked_again_after_a_late_reply_is_not_a_second_dig(session: objec
         again = team.ask("excavator-1", "site_set", **args, once="excavator-1@z/dig-1")
         assert first == again and site.remaining == before - 1
         assert w.loads["excavator-1"] == 1
+    finally:
+        w.close()
+
+
+def test_mission_control_never_shows_an_older_view_over_a_newer_one(session: object) -> None:
+    """Mission control asks for views from two threads (its poller, and a pause that shows
+    the world at the pause): their answers can cross. A view read earlier arriving later must
+    not put back what the newer one showed (a delivery count going 7, 6, 7)."""
+    team = Team(session)
+    w = team.w
+    try:
+        site = w.terrain.sites[0]
+        views = [w.view()]
+        for _ in range(3):
+            team.ask("excavator-1", "site_set", id=site.id, worker="excavator-1", by="excavator-1")
+            _dig(team, "excavator-1")
+            team.ask("excavator-1", "drop", x=1.0, y=1.0, by="excavator-1")
+            views.append(w.view())
+        shown = WorldView(reference_scenario(), 0, "nearest")
+        order = [2, 0, 3, 1, 3]
+        took = [shown.show(views[i]) for i in order]
+        assert took == [True, False, True, False, False]
+        assert shown.terrain.sites[0].remaining == views[3]["picture"]["sites"][0]["remaining"]
+        assert len(shown.terrain.ground) == 3
     finally:
         w.close()
