@@ -32,6 +32,9 @@ class Observer:
         self.auctions: list[AuctionRecord] = []
         self.auctions_by_id: dict[str, AuctionRecord] = {}
         self._serial: dict[str, int] = {}
+        self.life = 1
+        """Which life of its process this record's robots live (field mode: a robot's agent
+        started again is a new life, counting its auctions and minerals from 1 again)."""
         self.bids = 0
         self.declines = 0
         self.failures = 0
@@ -66,6 +69,11 @@ class Observer:
                 },
             )
 
+    def of_this_life(self, ident: str) -> str:
+        """`ident` (an auction's or a task's id a robot made) marked with a later life: a new
+        life's `scout-1/2` or `excavator-1#m0` is `...@2`, never an earlier life's own."""
+        return ident if self.life == 1 else f"{ident}@{self.life}"
+
     def new_auction(
         self,
         auctioneer: str,
@@ -80,7 +88,7 @@ class Observer:
         n = self._serial.get(auctioneer, 0) + 1
         self._serial[auctioneer] = n
         rec = AuctionRecord(
-            id=f"{auctioneer}/{n}",
+            id=self.of_this_life(f"{auctioneer}/{n}"),
             kind=kind,
             auctioneer=auctioneer,
             task_type=task_type,

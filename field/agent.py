@@ -142,6 +142,7 @@ class Agent(Asking):
             make_policy(spawn["policy"], self._policy_context),
         )
         ctx.report = self.report
+        ctx.observer.life = credential.gen  # ids it makes are its life's alone
         ctx.terrain = RemoteField(self)  # type: ignore[assignment]
         self.bus = ZenohBus(self.link, ctx.liveness, self._note_peer, faults)
         ctx.bus = self.bus  # type: ignore[assignment]

@@ -186,7 +186,7 @@ class Excavator(Robot):
         Looked at again whenever something changes (a hauler arrives, a heartbeat passes):
         a partner standing by takes the mineral unless an auction winner is already on its way.
         """
-        task_id = f"{self.name}#m{self.minerals_dug}"
+        task_id = self.ctx.observer.of_this_life(f"{self.name}#m{self.minerals_dug}")
         self.waiting_for = task_id
         offered = False
         while self.bucket:

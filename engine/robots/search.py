@@ -142,7 +142,7 @@ class Search:
         cells = self.route[-(mine // 2) :]
         self._set_route(self.route[: -(mine // 2)])
         self._handoffs += 1
-        hid = f"{self.name}>{to}#{self._handoffs}"
+        hid = self.ctx.observer.of_this_life(f"{self.name}>{to}#{self._handoffs}")
         self._given[hid] = (to, cells, float(self.env.now))
         self.routes[to] = self.routes.get(to, []) + cells
         self.ctx.observer.emit("handoff", by=self.name, to=to, cells=len(cells), handoff_id=hid)

@@ -64,7 +64,7 @@ class Transports:
         """A task id never used before: `t` for a transport auctioned ahead, `r` for one
         offered again for a full bucket."""
         self._serial += 1
-        return f"{self.name}#{kind}{self._serial}"
+        return self.ctx.observer.of_this_life(f"{self.name}#{kind}{self._serial}")
 
     # --- ahead of the bucket (a lead policy) ----------------------------------------------
     def auction_ahead(self, site: SiteState | Point) -> None:
@@ -114,12 +114,8 @@ class Transports:
             if dist((g.x, g.y), here) > NEAR or self._known_at((g.x, g.y)):
                 continue
             self._ground_serial += 1
-            self.robot.house.open(
-                "transport",
-                (g.x, g.y),
-                f"{self.name}#g{self._ground_serial}",
-                kind="excavator_hauler",
-            )
+            tid = self.ctx.observer.of_this_life(f"{self.name}#g{self._ground_serial}")
+            self.robot.house.open("transport", (g.x, g.y), tid, kind="excavator_hauler")
 
     def _known_at(self, p: Point) -> bool:
         """Is a transport for a mineral lying here already offered or under way? My own pile's

@@ -3,7 +3,7 @@
 import pytest
 
 from engine import Mission, parse_scenario, reference_scenario
-from tests.engine.factories import events_of
+from tests.engine.factories import FAILURES, events_of, play_actions
 from tests.engine.invariants import InvariantWatch
 
 
@@ -152,3 +152,26 @@ def test_a_returning_scout_whose_cells_were_adopted_asks_for_a_share():
     assert m.status == "completed"
     assert [s["to"] for s in events_of(m, "handoff")] == ["scout-2"]
     assert m.ctx.terrain.scanned_count == scannable(m)
+
+
+@pytest.mark.parametrize("policy", ["nearest", "lookahead"])
+def test_a_later_life_marks_every_id_it_makes(policy: str) -> None:
+    """Field mode starts a robot again as a new process whose counters begin again at 1 (a
+    new life: `Observer.life`). Every id such a life makes must say so, or a peer takes its
+    new hand-over for one it already holds (the cells are never scanned), and mission control
+    its new auction for an old one (one record written over another). Sites are named by
+    where they are: the same site is the same task in any life."""
+    m = Mission(reference_scenario(), 1, policy)
+    m.ctx.observer.life = 2
+    m.advance(200)
+    m.add_robot("scout")  # a share of the search handed over
+    play_actions(m, [(t + 200, "fail", name) for t, name in FAILURES])
+    m.run()
+    assert m.status == "completed"
+    made = [a.id for a in m.auctions]
+    made += [a.task_id for a in m.auctions if a.task_type != "excavate"]
+    made += [h["handoff_id"] for h in events_of(m, "handoff")]
+    assert events_of(m, "handoff") and any(a.task_type == "transport" for a in m.auctions)
+    assert all(i.endswith("@2") for i in made), [i for i in made if not i.endswith("@2")]
+    sites = [a.task_id for a in m.auctions if a.task_type == "excavate"]
+    assert sites and not any("@2" in s for s in sites)

@@ -1,8 +1,9 @@
 """A field mission end to end: mission control and twelve agent processes on 127.0.0.1, the
 reference mission at 100× to completion; one hauler SIGKILLed while it carries a mineral to
-the plant, a new excavator process started mid-mission. Checked on what mission control
-recorded: the mineral fell where the hauler was last heard of, was carried by another, and
-every mineral is accounted for."""
+the plant, a new excavator process started mid-mission, a scout killed and started again.
+Checked on what mission control recorded: the mineral fell where the hauler was last heard of,
+was carried by another, every mineral is accounted for, and the scout's second life numbered
+its auctions apart from its first."""
 
 from __future__ import annotations
 
@@ -60,6 +61,11 @@ def _carrying(fleet: Fleet, robot: str) -> dict[str, Any] | None:
     return won[-1] if won else None
 
 
+def _auctioned(fleet: Fleet, robot: str) -> bool:
+    with fleet.intake.lock:
+        return any(a["auctioneer"] == robot for a in fleet.intake.auctions.values())
+
+
 @pytest.mark.slow
 @pytest.mark.fleet
 def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> None:
@@ -69,6 +75,7 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     watch = Progress("the field mission to finish")
     killed: dict[str, Any] | None = None
     added = None
+    reborn: float | None = None  # when scout-1's second life began
     while not fleet.world.terrain.finished.triggered:
         status = fleet.world.status()
         watch.check([status[k] for k in WORK], lambda: f"not finished: {fleet.world.status()}")
@@ -81,6 +88,11 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
                 assert fleet.world.status()["ground"] >= 1  # its mineral fell where it was
         if added is None and now >= 300:  # sites are still being found until ~1300 s
             added = fleet.add("excavator")
+        if reborn is None and now >= 150 and _auctioned(fleet, "scout-1"):
+            # its first life auctioned a site: its second counts its auctions from 1 again
+            fleet.kill("scout-1")
+            fleet.spawn("scout-1")
+            reborn = fleet.now()
         time.sleep(0.02)
 
     status = fleet.world.status()
@@ -108,5 +120,13 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator(fleet: Fleet) -> N
     # the excavator that joined mid-mission won work
     won = {a["allocated_to"] for a in auctions if a["task_type"] == "excavate"}
     assert "excavator-5" in won, f"excavation winners: {won}"
+    # each auction is one: the scout's two lives never share an auction's id
+    closes = [d["auction_id"] for k, d in events if k == "auction_closed"]
+    assert len(closes) == len(set(closes)), sorted(c for c in closes if closes.count(c) > 1)
+    assert reborn is not None
+    second = [a for a in auctions if a["auctioneer"] == "scout-1" and a["opened_at"] > reborn]
+    assert all(a["id"].endswith("@2") for a in second), [a["id"] for a in second]
+    first = [a for a in auctions if a["auctioneer"] == "scout-1" and a["opened_at"] < reborn]
+    assert first and not any("@" in a["id"] for a in first)
     # what mission control heard was valid: nothing malformed on the wire
     assert fleet.intake.malformed == 0 and fleet.intake.messages > 1000
