@@ -55,6 +55,11 @@ def _drained(viewer: Viewer) -> bool:
     return not viewer.queue and viewer.frame is None
 
 
+def _kinds(ws: FakeSocket) -> list[tuple[str, Any]]:
+    """What was sent, in order: each message's type and its `n` (or a frame's time)."""
+    return [(m["type"], m.get("n", m.get("t"))) for m in ws.sent]
+
+
 def _frame(t: float, x: float = 0.0, state: str = "idle") -> dict[str, Any]:
     """An engine frame of one robot (the fields `Mission.frame()` has)."""
     robot = {"name": "scout-1", "type": "scout", "state": state, "x": x, "y": 1.0}
@@ -83,8 +88,7 @@ def test_ordered_messages_keep_order_and_unsent_frames_are_merged() -> None:
         return ws
 
     ws = _run(scenario())
-    kinds = [(m["type"], m.get("n", m.get("t"))) for m in ws.sent]
-    assert kinds == [("snapshot", None), ("event", 1), ("frame", 2), ("frame", 9)]
+    assert _kinds(ws) == [("snapshot", None), ("event", 1), ("frame", 2), ("frame", 9)]
     merged, last = ws.sent[2], ws.sent[3]
     # three deltas not yet sent went as one: from the first's base to the last's seq, the
     # robot whole (its state changed) at its newest pose, the newest counters
@@ -103,14 +107,14 @@ def test_an_ordered_frame_is_not_overtaken_by_the_message_after_it() -> None:
         hub = Hub(max_queue=100)
         ws = FakeSocket()
         viewer = hub.join(ws, json.dumps({"type": "snapshot"}))  # type: ignore[arg-type]
-        hub.publish_frame(_frame(1, x=1.0))  # unsent when the pause comes
-        hub.publish_frame(_frame(2, x=2.0), ordered=True)
-        hub.publish({"type": "status", "n": 1})
-        hub.publish_frame(_frame(3, x=3.0))  # unsent, and nothing new at the next pause
-        hub.publish_frame(_frame(3, x=3.0), ordered=True)
-        hub.publish({"type": "status", "n": 2})
-        hub.publish_frame(_frame(3, x=3.0), ordered=True)  # nothing unsent: nothing to send
-        hub.publish({"type": "status", "n": 3})
+        # three pauses: the first with a delta unsent before its own; the second with only an
+        # unsent one (nothing new at the pause); the third with nothing to send at all
+        hub.publish_frame(_frame(1, x=1.0))
+        for n, frame in enumerate([_frame(2, x=2.0), _frame(3, x=3.0), _frame(3, x=3.0)], 1):
+            if n == 2:
+                hub.publish_frame(frame)
+            hub.publish_frame(frame, ordered=True)
+            hub.publish({"type": "status", "n": n})
         task = asyncio.create_task(serve_viewer(ws, hub, viewer, 4096))  # type: ignore[arg-type]
         await ws.wait_sent(6)
         assert _drained(viewer)
@@ -118,8 +122,7 @@ def test_an_ordered_frame_is_not_overtaken_by_the_message_after_it() -> None:
         return ws
 
     ws = _run(scenario())
-    kinds = [(m["type"], m.get("n", m.get("t"))) for m in ws.sent]
-    assert kinds == [
+    assert _kinds(ws) == [
         ("snapshot", None),
         ("frame", 2),
         ("status", 1),
