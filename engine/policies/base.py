@@ -71,10 +71,11 @@ class Policy:
     targets_pure = True
     """`bid_targets` only reads: a robot that provably sends no bid may skip asking it."""
     targets_from_list = False
-    """`bid_targets` reads nothing but the auction list, and `bids` sends nothing for a busy
-    robot that has bid -inf in every target, whatever `BidMemory.changed` says (both rules of
+    """`bid_targets` reads nothing but the auction list, and for a busy robot `bids` sends
+    nothing in a target it has bid -inf in, whatever `BidMemory.changed` says (both rules of
     engine/bidding.py): a busy robot that sent nothing need not ask again until the list or
-    its own bids change (a hauler hears every re-announcement of every waiting transport).
+    its own bids change (a hauler hears every re-announcement of every waiting transport),
+    and one that bids in every auction is asked only about those it has not refused.
     A class that overrides either method states it again (`register_policy` checks)."""
 
     def targets_from_list_for(self, view: RobotView) -> bool:

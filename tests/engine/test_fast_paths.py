@@ -320,6 +320,37 @@ def test_a_busy_robot_that_refused_every_target_sends_nothing_whatever_changed(
         assert rule(view, targets, mem) == [(targets[0], latest[targets[0].auction_id], -math.inf)]
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    rule=st.sampled_from([distance_bids, time_bids]),
+    targets=st.lists(st.sampled_from(_AUCTIONS), unique=True, max_size=4),
+    rounds=st.lists(st.integers(0, 3), min_size=4, max_size=4),
+    said=st.lists(
+        st.one_of(st.none(), st.tuples(st.integers(0, 3), st.sampled_from([-math.inf, -5.0]))),
+        min_size=4,
+        max_size=4,
+    ),
+    changed=st.booleans(),
+)
+def test_a_busy_robot_is_asked_only_about_the_targets_it_has_not_refused(
+    rule: Any,
+    targets: list[OpenAuction],
+    rounds: list[int],
+    said: list[tuple[int, float] | None],
+    changed: bool,
+) -> None:
+    """The per-target form of that promise (`Bidder.consider_bids` relies on it): a busy
+    robot's bids are the same whether its refused targets are asked about or left out, so a
+    quiet robot that bids in every auction is asked only about the few it has not refused
+    (thousands of open auctions at scale 100, most of them refused long ago)."""
+    sent = {a.auction_id: s for a, s in zip(_AUCTIONS, said, strict=True) if s is not None}
+    latest = {a.auction_id: r for a, r in zip(_AUCTIONS, rounds, strict=True)}
+    view = SimpleNamespace(eta_to=lambda a: a.location[0], cost_to=lambda a: a.location[0])
+    mem = BidMemory(busy=True, sent=sent, rounds=latest, changed=changed, every_round=False)
+    open_ones = [a for a in targets if sent.get(a.auction_id, (0, 0.0))[1] != -math.inf]
+    assert rule(view, targets, mem) == rule(view, open_ones, mem)
+
+
 def test_a_policy_below_one_that_answers_per_robot_must_answer_again():
     """Policy 2's excavators, and its haulers without a partner, bid as Policy 1, so a busy one
     that sent nothing is not asked again (`targets_from_list_for`); a hauler with a partner
