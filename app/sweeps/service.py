@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sqlalchemy import func, select
+from sqlalchemy import and_, func, or_, select
 from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
@@ -262,7 +262,10 @@ class SweepManager:
     async def page(
         self, status: str | None, limit: int, offset: int
     ) -> tuple[list[dict[str, Any]], int]:
-        rows, total = await self.store.read(_page, status, limit, offset)
+        # a running job's status may be ahead of its row (its final status being written):
+        # the filter reads the status each item shows, so the list and its count agree
+        live = {i: str(job.live_fields()["status"]) for i, job in self.jobs.items()}
+        rows, total = await self.store.read(_page, status, live, limit, offset)
         return [self.fields(r) for r in rows], total
 
     async def detail(self, sweep_id: int, results: bool = True) -> dict[str, Any]:
@@ -305,11 +308,17 @@ def _get(session: Session, sweep_id: int) -> SweepRow | None:
 
 
 def _page(
-    session: Session, status: str | None, limit: int, offset: int
+    session: Session, status: str | None, live: dict[int, str], limit: int, offset: int
 ) -> tuple[list[SweepRow], int]:
+    """A page of sweeps, newest first; with `status`, those showing it: a row's own, or for
+    a sweep with a job, the job's (`live`: id -> status)."""
     stmt = select(SweepRow).order_by(SweepRow.id.desc())
     count = select(func.count()).select_from(SweepRow)
     if status is not None:
-        stmt = stmt.where(SweepRow.status == status)
-        count = count.where(SweepRow.status == status)
+        shows = or_(
+            and_(SweepRow.status == status, SweepRow.id.not_in(list(live))),
+            SweepRow.id.in_([i for i, s in live.items() if s == status]),
+        )
+        stmt = stmt.where(shows)
+        count = count.where(shows)
     return list(session.scalars(stmt.limit(limit).offset(offset))), int(session.scalar(count) or 0)

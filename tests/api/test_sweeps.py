@@ -11,8 +11,11 @@ from typing import Any
 import httpx
 import pytest
 from sqlalchemy import text
+from sqlalchemy.orm import Session
 
+from app.db.models import Base, Sweep, utcnow
 from app.db.session import make_engine
+from app.sweeps.service import _page
 from tests.api.conftest import LiveServer
 from tests.progress import wait_progress
 
@@ -107,6 +110,34 @@ def test_sweep_runs_in_the_background_and_serves_its_results(
     assert (out / "runs.csv").read_text().count("\n") == 5
     assert api.post(f"/api/sweeps/{sid}/resume").status_code == 409  # nothing left to do
     assert api.post(f"/api/sweeps/{sid}/cancel").status_code == 409
+
+
+def test_a_sweep_is_listed_by_the_status_it_shows_while_its_row_catches_up(
+    tmp_path: Path,
+) -> None:
+    """A job knows its final status before its row does (the write is queued behind
+    others), and every read shows the job's: a list filtered by status must read the same,
+    or a sweep shown completed is counted among the running (CI saw exactly that)."""
+    engine = make_engine(f"sqlite:///{tmp_path / 'sweeps.db'}")
+    Base.metadata.create_all(engine)
+    with Session(engine) as session:
+        for status in ("completed", "running", "running"):
+            fields = {"policies": ["fcfs"], "seeds": [0], "scale": 1, "scenario": {}}
+            fields |= {"scenario_name": "reference", "total": 1, "created_at": utcnow()}
+            session.add(Sweep(status=status, **fields))
+        session.commit()
+        live = {2: "running", 3: "completed"}  # sweep 3's job has just ended
+
+        def shown(status: str | None) -> list[int]:
+            rows, total = _page(session, status, live, 10, 0)
+            assert total == len(rows)
+            return [r.id for r in rows]
+
+        assert shown("running") == [2]
+        assert shown("completed") == [3, 1]
+        assert shown(None) == [3, 2, 1]
+        assert shown("failed") == []
+    engine.dispose()
 
 
 def test_sweep_requests_are_checked(server: LiveServer, api: httpx.Client) -> None:
