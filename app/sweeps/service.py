@@ -123,10 +123,8 @@ class SweepManager:
 
     async def cancel(self, sweep_id: int) -> dict[str, Any]:
         """Stop a running sweep; answers once its final status is written (or after 10 s)."""
+        await self._settled(sweep_id)
         job = self.jobs.get(sweep_id)
-        if job is not None and job.final is not None and job.task is not None:
-            await asyncio.wait([job.task])  # it is writing its final status: let it
-            job = None
         if job is None:
             row = await self._row(sweep_id)
             raise Conflict(
@@ -142,6 +140,7 @@ class SweepManager:
 
     async def resume(self, sweep_id: int) -> dict[str, Any]:
         """Continue an interrupted, cancelled or failed sweep from its journal."""
+        await self._settled(sweep_id)
         with self._slot():
             row = await self._row(sweep_id)
             if sweep_id in self.jobs or row.status not in RESUMABLE:
@@ -156,11 +155,19 @@ class SweepManager:
             self._launch(sweep_id, spec)
         return await self.get(sweep_id)
 
+    async def _settled(self, sweep_id: int) -> None:
+        """A job that has its final status (every read shows it) is writing it: let it."""
+        job = self.jobs.get(sweep_id)
+        if job is not None and job.final is not None and job.task is not None:
+            await asyncio.wait([job.task])
+
     @contextmanager
     def _slot(self) -> Iterator[None]:
-        """Hold one of the REGOLITH_MAX_RUNNING_SWEEPS places while a sweep is being started."""
+        """Hold one of the REGOLITH_MAX_RUNNING_SWEEPS places while a sweep is being started
+        (a job writing its final status holds none: it shows as ended)."""
         limit = self.settings.max_running_sweeps
-        if len(self.jobs) + self._starting >= limit:
+        running = sum(1 for job in self.jobs.values() if job.final is None)
+        if running + self._starting >= limit:
             raise LimitExceeded(
                 f"{limit} sweep(s) already running; wait for it to finish, cancel it, or raise "
                 "REGOLITH_MAX_RUNNING_SWEEPS"

@@ -4,6 +4,7 @@ a small scenario (each run ~0.3 s)."""
 
 from __future__ import annotations
 
+import asyncio
 import os
 from pathlib import Path
 from typing import Any
@@ -11,12 +12,15 @@ from typing import Any
 import httpx
 import pytest
 from sqlalchemy import text
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Base, Sweep, utcnow
 from app.db.session import make_engine
-from app.sweeps.service import _page
-from tests.api.conftest import LiveServer
+from app.services.errors import Conflict
+from app.services.store import Store
+from app.sweeps.job import SweepJob
+from app.sweeps.service import SweepManager, _page
+from tests.api.conftest import LiveServer, make_settings
 from tests.progress import wait_progress
 
 SMALL: dict[str, Any] = {"name": "small", "width": 40.0, "height": 40.0, "sites": 4}
@@ -138,6 +142,47 @@ def test_a_sweep_is_listed_by_the_status_it_shows_while_its_row_catches_up(
         assert shown(None) == [3, 2, 1]
         assert shown("failed") == []
     engine.dispose()
+
+
+def test_a_sweep_writing_its_final_status_is_ended_for_every_request(tmp_path: Path) -> None:
+    """Between a job's end and its row's final write, the sweep shows its final status: it
+    holds no place of the running limit, and a resume waits for the write, then is refused
+    as for any completed sweep (CI saw 429, 'already running', where 409 was due)."""
+    engine = make_engine(f"sqlite:///{tmp_path / 'sweeps.db'}")
+    Base.metadata.create_all(engine)
+    with Session(engine) as session:
+        fields = {"policies": ["fcfs"], "seeds": [0], "scale": 1, "scenario": {}}
+        fields |= {"scenario_name": "reference", "total": 1, "created_at": utcnow()}
+        session.add(Sweep(status="running", **fields))
+        session.commit()
+    store = Store(sessionmaker(engine))
+    manager = SweepManager(make_settings(tmp_path), store)
+
+    async def scenario() -> tuple[str, str]:
+        job = SweepJob(1, None, tmp_path)  # type: ignore[arg-type]
+        job.final = {"status": "completed", "error": None}
+        queued = asyncio.Event()
+
+        async def final_write() -> None:  # the job's last act, queued behind other writes
+            await queued.wait()
+            await store.update_sweep(1, job.final or {})
+            manager.jobs.pop(1)
+
+        job.task = asyncio.create_task(final_write())
+        manager.jobs[1] = job
+        with manager._slot():  # a new sweep may start: the ended job holds no place
+            pass
+        asyncio.get_running_loop().call_later(0.05, queued.set)
+        with pytest.raises(Conflict) as refused:
+            await manager.resume(1)
+        return str(refused.value), (await manager.get(1))["status"]
+
+    try:
+        refused, status = asyncio.run(scenario())
+    finally:
+        store.close()
+        engine.dispose()
+    assert "is completed" in refused and status == "completed"
 
 
 def test_sweep_requests_are_checked(server: LiveServer, api: httpx.Client) -> None:
