@@ -11,7 +11,7 @@ from typing import Any
 
 import httpx
 import pytest
-from sqlalchemy import text
+from sqlalchemy import Engine, text
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Base, Sweep, utcnow
@@ -116,20 +116,28 @@ def test_sweep_runs_in_the_background_and_serves_its_results(
     assert api.post(f"/api/sweeps/{sid}/cancel").status_code == 409
 
 
+def _sweeps_db(tmp_path: Path, statuses: list[str]) -> Engine:
+    """A SQLite file with one sweep row per status (ids from 1), no server: for the
+    manager's reads where the row and its job disagree."""
+    engine = make_engine(f"sqlite:///{tmp_path / 'sweeps.db'}")
+    Base.metadata.create_all(engine)
+    with Session(engine) as session:
+        for status in statuses:
+            fields = {"policies": ["fcfs"], "seeds": [0], "scale": 1, "scenario": {}}
+            fields |= {"scenario_name": "reference", "total": 1, "created_at": utcnow()}
+            session.add(Sweep(status=status, **fields))
+        session.commit()
+    return engine
+
+
 def test_a_sweep_is_listed_by_the_status_it_shows_while_its_row_catches_up(
     tmp_path: Path,
 ) -> None:
     """A job knows its final status before its row does (the write is queued behind
     others), and every read shows the job's: a list filtered by status must read the same,
     or a sweep shown completed is counted among the running (CI saw exactly that)."""
-    engine = make_engine(f"sqlite:///{tmp_path / 'sweeps.db'}")
-    Base.metadata.create_all(engine)
+    engine = _sweeps_db(tmp_path, ["completed", "running", "running"])
     with Session(engine) as session:
-        for status in ("completed", "running", "running"):
-            fields = {"policies": ["fcfs"], "seeds": [0], "scale": 1, "scenario": {}}
-            fields |= {"scenario_name": "reference", "total": 1, "created_at": utcnow()}
-            session.add(Sweep(status=status, **fields))
-        session.commit()
         live = {2: "running", 3: "completed"}  # sweep 3's job has just ended
 
         def shown(status: str | None) -> list[int]:
@@ -148,13 +156,7 @@ def test_a_sweep_writing_its_final_status_is_ended_for_every_request(tmp_path: P
     """Between a job's end and its row's final write, the sweep shows its final status: it
     holds no place of the running limit, and a resume waits for the write, then is refused
     as for any completed sweep (CI saw 429, 'already running', where 409 was due)."""
-    engine = make_engine(f"sqlite:///{tmp_path / 'sweeps.db'}")
-    Base.metadata.create_all(engine)
-    with Session(engine) as session:
-        fields = {"policies": ["fcfs"], "seeds": [0], "scale": 1, "scenario": {}}
-        fields |= {"scenario_name": "reference", "total": 1, "created_at": utcnow()}
-        session.add(Sweep(status="running", **fields))
-        session.commit()
+    engine = _sweeps_db(tmp_path, ["running"])
     store = Store(sessionmaker(engine))
     manager = SweepManager(make_settings(tmp_path), store)
 

@@ -99,7 +99,7 @@ def _field_mission_on_the_dashboard(
     t0 = paused["sim_time"]
     # the frame of the pause moment (the world's count at the pause) may come after the
     # answer that said "paused": a delivery carried out just before it is counted there
-    wait_for(page, f"window.__regolith.t >= {t0} - 1e-6", timeout=30)
+    wait_for(page, f"window.__regolith.t >= {t0} - 1e-6", timeout=STALL_S)
     delivered = page.evaluate("window.__regolith.lastCounters.minerals_delivered")
     start = time.monotonic()
     while time.monotonic() - start < max(2.0, 150.0 / pace):  # ~4 deliveries' worth
