@@ -64,9 +64,9 @@ class RobotView(Protocol):
         timeout; -inf when not paired."""
         ...
 
-    def stranded(self, a: OpenAuction) -> bool:
-        """Nobody but a paired hauler could take this transport: no unpaired hauler is alive,
-        as far as this robot knows."""
+    def transports_stranded(self) -> bool:
+        """Nobody but a paired hauler could carry a transport: no unpaired hauler is alive, as
+        far as this robot knows (the same answer for every transport, asked once a look)."""
         ...
 
     def cost_to(self, a: OpenAuction) -> float: ...

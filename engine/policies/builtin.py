@@ -62,7 +62,7 @@ class AnticipatoryCoalitions(FirstComeFirstServed):
         if view.rtype == "hauler" and view.paired():
             if view.partner_working():
                 return []
-            return earliest([a for a in auctions if view.stranded(a)])
+            return earliest(auctions) if auctions and view.transports_stranded() else []
         return earliest(auctions)
 
     def coalitions(self) -> bool:

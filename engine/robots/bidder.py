@@ -37,7 +37,7 @@ _OPENING = attrgetter("order")
 class BiddingRobot(Protocol):
     """What the bidding part needs of its robot: who and where it is, what it holds, and the
     type's own answers to the policy (`free_at`, and for coalitions `paired`,
-    `partner_working`, `stranded`)."""
+    `partner_working`, `transports_stranded`)."""
 
     name: str
     rtype: str
@@ -64,7 +64,7 @@ class BiddingRobot(Protocol):
     def free_at(self) -> tuple[float, Point]: ...
     def paired(self) -> bool: ...
     def partner_working(self) -> bool: ...
-    def stranded(self, a: OpenAuction) -> bool: ...
+    def transports_stranded(self) -> bool: ...
 
 
 class Bidder(Pricing):

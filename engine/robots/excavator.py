@@ -7,7 +7,6 @@ from typing import TYPE_CHECKING, Any
 import simpy
 
 from engine.auction_rules import Allocation
-from engine.bidding import OpenAuction
 from engine.geometry import Point, dist
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
@@ -310,7 +309,7 @@ class Excavator(Robot):
     def partner_working(self) -> bool:
         return False
 
-    def stranded(self, a: OpenAuction) -> bool:
+    def transports_stranded(self) -> bool:
         return False
 
     def when_free(self) -> Any:

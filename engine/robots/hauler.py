@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from engine.bidding import OpenAuction
 from engine.geometry import Point, dist, path_length, segment_point_distance
 from engine.messages import Close, TaskDone
 from engine.policies import coalition_partner
@@ -235,14 +234,13 @@ class Hauler(Robot):
     def partner_working(self) -> bool:
         return self.partnership.site is not None
 
-    def stranded(self, a: OpenAuction) -> bool:
-        """No unpaired hauler is alive to take this transport (paired haulers take only their
+    def transports_stranded(self) -> bool:
+        """No unpaired hauler is alive to carry a transport (paired haulers take only their
         partner's minerals, and a partner never bids), as far as I know.
 
-        The answer is the same for every transport, and a paired hauler asks it for each open
-        one at every look: the last unpaired live hauler found is asked first, and most looks
-        end there instead of going through every hauler (at scale 10 this question was three
-        quarters of a Policy 2 mission)."""
+        A paired hauler asks it at every look: the last unpaired live hauler found is asked
+        first, and most looks end there instead of going through every hauler (at scale 10
+        this question was three quarters of a Policy 2 mission)."""
         carrier = self._carrier
         if carrier is not None and self._can_carry(carrier):
             return False

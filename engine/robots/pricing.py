@@ -34,7 +34,7 @@ class PricedRobot(Protocol):
     def free_at(self) -> tuple[float, Point]: ...
     def paired(self) -> bool: ...
     def partner_working(self) -> bool: ...
-    def stranded(self, a: OpenAuction) -> bool: ...
+    def transports_stranded(self) -> bool: ...
 
 
 class Pricing:
@@ -58,8 +58,8 @@ class Pricing:
             return -math.inf
         return self.robot.recovery.alive_until(partner)
 
-    def stranded(self, a: OpenAuction) -> bool:
-        return self.robot.stranded(a)
+    def transports_stranded(self) -> bool:
+        return self.robot.transports_stranded()
 
     def free_at(self) -> tuple[float, Point]:
         """When (seconds from now) and where this robot will be free, by its own estimate."""

@@ -57,7 +57,7 @@ class View:
     rtype: str = "hauler"
     pair: bool = False
     working: bool = False
-    stranded_ids: tuple[str, ...] = ()
+    stranded: bool = False
 
     def paired(self) -> bool:
         return self.pair
@@ -65,8 +65,8 @@ class View:
     def partner_working(self) -> bool:
         return self.working
 
-    def stranded(self, a: OpenAuction) -> bool:
-        return a.auction_id in self.stranded_ids
+    def transports_stranded(self) -> bool:
+        return self.stranded
 
     def cost_to(self, a: OpenAuction) -> float:
         return 1.0
@@ -97,8 +97,9 @@ def test_policy_2_paired_haulers_carry_only_for_their_partner_others_bid_as_poli
     assert p.bid_targets(View(pair=False), [a, b]) == [a]
     assert p.bid_targets(View(rtype="excavator"), [a, b]) == [a]
     # the one exception: a transport nobody else can take (no deadlock), partner idle only
-    assert p.bid_targets(View(pair=True, stranded_ids=("x/2",)), [a, b]) == [b]
-    assert p.bid_targets(View(pair=True, working=True, stranded_ids=("x/2",)), [a, b]) == []
+    assert p.bid_targets(View(pair=True, stranded=True), [a, b]) == [a]
+    assert p.bid_targets(View(pair=True, working=True, stranded=True), [a, b]) == []
+    assert p.bid_targets(View(pair=True, stranded=True), []) == []
 
 
 def test_relaxed_policy_2_lets_a_hauler_with_an_idle_partner_carry_for_anyone():
