@@ -51,7 +51,10 @@ class AnticipatoryCoalitions(FirstComeFirstServed):
     targets_from_list = False  # a paired hauler's targets depend on its partner
 
     def targets_from_list_for(self, view: RobotView) -> bool:
-        return view.rtype != "hauler" or not view.has_partner()
+        # a hauler's targets are the earliest auction or nothing: one bidding as Policy 1 now
+        # (no partner, or one not alive) has the widest, so a quiet noted now holds whatever
+        # its partner does later (its targets can only shrink to nothing)
+        return view.rtype != "hauler" or not view.has_partner() or not view.paired()
 
     def no_targets_until(self, view: RobotView) -> float | None:
         if view.rtype == "hauler" and view.partner_working():

@@ -352,16 +352,21 @@ def test_a_busy_robot_is_asked_only_about_the_targets_it_has_not_refused(
 
 
 def test_a_policy_below_one_that_answers_per_robot_must_answer_again():
-    """Policy 2's excavators, and its haulers without a partner, bid as Policy 1, so a busy one
-    that sent nothing is not asked again (`targets_from_list_for`); a hauler with a partner
-    reads it. A subclass that chooses targets otherwise must answer again, as for the flag."""
+    """Policy 2's excavators, and its haulers without a partner or with one not alive, bid as
+    Policy 1, so a busy one that sent nothing is not asked again (`targets_from_list_for`):
+    the earliest auction is the most a hauler's targets can be, so its partner coming back
+    only takes targets away. A hauler with a live partner reads it. A subclass that chooses
+    targets otherwise must answer again, as for the flag."""
     coalition = POLICIES["coalition"]
 
-    def view(rtype: str, partner: bool) -> Any:
-        return SimpleNamespace(rtype=rtype, has_partner=lambda: partner)
+    def view(rtype: str, partner: bool, alive: bool = True) -> Any:
+        return SimpleNamespace(
+            rtype=rtype, has_partner=lambda: partner, paired=lambda: partner and alive
+        )
 
     assert coalition().targets_from_list_for(view("excavator", True))
     assert coalition().targets_from_list_for(view("hauler", False))
+    assert coalition().targets_from_list_for(view("hauler", True, alive=False))
     assert not coalition().targets_from_list_for(view("hauler", True))
 
     class NoAnswer(coalition):  # type: ignore[misc,valid-type]
@@ -383,6 +388,56 @@ def test_a_policy_below_one_that_answers_per_robot_must_answer_again():
     ):
         check_policy(NoAnswer)
     check_policy(Answers)
+
+
+EXCAVATORS = ["excavator-1", "excavator-2", "excavator-3", "excavator-4"]
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    ops=st.lists(
+        st.tuples(
+            st.floats(50.0, 900.0),
+            st.sampled_from(["fail", "leave", "enable"]),
+            st.sampled_from(EXCAVATORS),
+        ),
+        min_size=1,
+        max_size=5,
+    ),
+)
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_a_partners_departure_and_return_change_nothing_for_a_quiet_hauler(
+    seed: int, ops: list[tuple[float, str, str]]
+) -> None:
+    """Policy 2, excavators failing, leaving and coming back: a busy hauler whose partner is
+    not alive is quiet as a Policy 1 robot is (`targets_from_list_for`), and its partner's
+    return, which can only take its targets away, changes no event against the plain
+    engine."""
+    plan = sorted((t, kind, name) for t, kind, name in ops)
+    fast = _play(reference_scenario(), seed, "coalition", plan)
+    with _plain_engine():
+        plain = _play(reference_scenario(), seed, "coalition", plan)
+    assert fast == plain
+
+
+def test_a_busy_hauler_whose_partner_is_not_on_the_team_is_quiet() -> None:
+    """What the answer above is for: the reference team has six haulers and four excavators,
+    so hauler-5 and hauler-6 name partners that never come; busy, they are quiet (as Policy
+    1's haulers are) instead of being asked again at every round of every transport."""
+    quiet: set[str] = set()
+    note = Bidder._note_quiet
+
+    def noted(self: Bidder, auctions: list[OpenAuction], policy: Any) -> None:
+        note(self, auctions, policy)
+        if self._quiet_on is auctions:
+            quiet.add(self.robot.name)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Bidder, "_note_quiet", noted)
+        m = Mission(reference_scenario(), 0, "coalition")
+        m.run()
+    assert m.status == "completed"
+    assert {"hauler-5", "hauler-6"} <= quiet, quiet
 
 
 def test_a_quiet_robot_is_quiet_no_more_once_it_has_room():
