@@ -49,9 +49,13 @@ from engine.tangent_query import Edge, Leg, Query
 from engine.world import CLEARANCE, World
 
 _FIELDS = 32
-"""Recent goals whose distance fields a planner keeps (~2.5 MB each at 600 craters): an
-auction's bidders price one goal at a time, a site waiting for an excavator is announced
-again and again, and a few goals are open at once."""
+"""Recent goals whose distance fields a planner keeps, at least: an auction's bidders price
+one goal at a time, a site waiting for an excavator is announced again and again, and a few
+goals are open at once."""
+_FIELD_BYTES = 104 * 2**20
+"""More are kept while their arrays fit in this: 32 at 600 craters (3.2 MB each, where memory
+is tight), 176 at 180 (0.6 MB). Policy 3 prices every open site from each excavator's new
+place, more goals than 32: at scale 30 the fields it made again were a third of its time."""
 _FANS = 1024
 """Recent starts whose fans a planner keeps (~0.1 MB each at 600 craters): an idle robot
 prices every task it hears from where it stands (scale 100's first 1,000 simulated seconds:
@@ -284,7 +288,8 @@ def polyline(start: Point, goal: Point, route: list[Leg] | None) -> Path:
 class TangentPlanner(ShortcutPlanner):
     """The `exact` planner: shortest paths over the world's tangent graph, answered from the
     goal's distance field (engine/tangent_field.py): the many robots that price one task
-    share its goal's side of the work. The fields of the last `_FIELDS` goals are kept."""
+    share its goal's side of the work. The fields of the last goals are kept (`_FIELDS`,
+    `_FIELD_BYTES`)."""
 
     cache_limit = 16_384
     """Solved paths kept: an exact answer is the same whenever it is asked, so one forgotten
@@ -313,7 +318,8 @@ class TangentPlanner(ShortcutPlanner):
 
     def field(self, goal: Point) -> GoalField:
         """The goal's distance field, kept or made."""
-        return _recent(self._fields, goal, _FIELDS, lambda: GoalField(self.graph, self.flat, goal))
+        most = max(_FIELDS, _FIELD_BYTES // (16 * (self.flat.goal + 1)))  # `dist` and `pred`
+        return _recent(self._fields, goal, most, lambda: GoalField(self.graph, self.flat, goal))
 
     def fan(self, start: Point) -> StartFan:
         """The start's fan, kept or made."""

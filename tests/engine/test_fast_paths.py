@@ -465,13 +465,15 @@ def test_a_quiet_robot_is_quiet_no_more_once_it_has_room():
 
 def test_an_exact_path_forgotten_is_found_again_the_same() -> None:
     """The exact planner keeps only so many solved paths, goal fields and start fans
-    (`TangentPlanner.cache_limit`, `_FIELDS`, `_FANS`): its answers are functions of the
-    query alone, so a run that keeps almost nothing is the very run that keeps it all."""
+    (`TangentPlanner.cache_limit`, `_FIELDS` and `_FIELD_BYTES`, `_FANS`): its answers are
+    functions of the query alone, so a run that keeps almost nothing is the very run that keeps
+    it all."""
     from tests.engine.digests import Case, digest, pinned
 
     case = Case("fcfs", "silent", 3, planner="exact")
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(engine.tangent_planner.TangentPlanner, "cache_limit", 8)
         mp.setattr(engine.tangent_planner, "_FIELDS", 1)
+        mp.setattr(engine.tangent_planner, "_FIELD_BYTES", 0)
         mp.setattr(engine.tangent_planner, "_FANS", 2)
         assert digest(case) == pinned()[case.key]

@@ -82,6 +82,7 @@ def test_fields_dropped_and_made_again_give_the_same_paths(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     monkeypatch.setattr(engine.tangent_planner, "_FIELDS", 3)
+    monkeypatch.setattr(engine.tangent_planner, "_FIELD_BYTES", 0)
     monkeypatch.setattr(engine.tangent_planner, "_FANS", 5)
     world = generate_world(reference_scenario(), np.random.default_rng(7))
     rng = np.random.default_rng(7)
