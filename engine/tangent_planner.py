@@ -302,6 +302,7 @@ class TangentPlanner(ShortcutPlanner):
         self._graph: TangentGraph | None = None
         self._flat: FlatGraph | None = None
         self._fields: OrderedDict[Point, GoalField] = OrderedDict()
+        self._fields_kept = _FIELDS  # set with the graph's size (`flat`)
         self._fans: OrderedDict[Point, StartFan] = OrderedDict()
 
     @property
@@ -314,12 +315,16 @@ class TangentPlanner(ShortcutPlanner):
     def flat(self) -> FlatGraph:
         if self._flat is None:  # the whole graph, opened at the first blocked query
             self._flat = FlatGraph(self.graph)
+            # the fields `_FIELD_BYTES` holds (`dist`, `pred`: 16 bytes a node); `_FIELDS` at least
+            self._fields_kept = max(_FIELDS, _FIELD_BYTES // (16 * (self._flat.goal + 1)))
         return self._flat
 
     def field(self, goal: Point) -> GoalField:
         """The goal's distance field, kept or made."""
-        most = max(_FIELDS, _FIELD_BYTES // (16 * (self.flat.goal + 1)))  # `dist` and `pred`
-        return _recent(self._fields, goal, most, lambda: GoalField(self.graph, self.flat, goal))
+        flat = self.flat
+        return _recent(
+            self._fields, goal, self._fields_kept, lambda: GoalField(self.graph, flat, goal)
+        )
 
     def fan(self, start: Point) -> StartFan:
         """The start's fan, kept or made."""
