@@ -1,13 +1,14 @@
 """Mission playback: a mission exactly as it was at any simulated time, rebuilt by replay.
 
 The replay engines run in a worker process of their own (`app/services/playback_worker.py`,
-the pool itself in `app/services/playback_pool.py`), not in the server. A replay engine is
-megabytes of small objects; in the server, while a mission is live, the live engine's
-ever-growing log landed in the same allocator arenas as the replays' short-lived objects and
-kept those arenas from going back to the system: after a burst of scrubs the server stayed
-~200 MB above its start for good. The worker's heap holds nothing but the pool, and the
-server stops the worker once playback has been idle for `REGOLITH_PLAYBACK_IDLE_S`, which
-gives all of it back; the next scrub starts a new one (a second or two to import the engine).
+the pool itself in `app/services/playback_pool.py`, the server's handle on the process in
+`app/services/playback_handle.py`), not in the server. A replay engine is megabytes of small
+objects; in the server, while a mission is live, the live engine's ever-growing log landed
+in the same allocator arenas as the replays' short-lived objects and kept those arenas from
+going back to the system: after a burst of scrubs the server stayed ~200 MB above its start
+for good. The worker's heap holds nothing but the pool, and the server stops the worker once
+playback has been idle for `REGOLITH_PLAYBACK_IDLE_S`, which gives all of it back; the next
+scrub starts a new one (a second or two to import the engine).
 
 Here: the checks a request needs the database for (404, 422 past the end), the replayable
 actions (a live mission's from its engine, so an action just applied counts before it is
@@ -23,9 +24,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import itertools
 import os
-import signal
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,11 +37,11 @@ import app
 from app.db.models import Mission as MissionRow
 from app.live.gate import Gate
 from app.services import field_playback
-from app.services.errors import Conflict, Invalid, LimitExceeded, Unavailable
+from app.services.errors import Invalid, LimitExceeded, Unavailable
 from app.services.live_state import LiveState
 from app.services.missions import MissionService
+from app.services.playback_handle import Worker
 from app.services.playback_pool import WORKERS
-from app.services.playback_wire import WireError, encode, read_frame
 from app.services.singleflight import SingleFlight
 from app.settings import Settings
 
@@ -51,10 +50,7 @@ __all__ = ["WORKERS", "Playback", "StateAt"]
 #: Requests with the worker at once (the rest wait here): enough to keep its two replays and
 #: the next ones busy, few enough that the worker holds little besides its engines.
 IN_FLIGHT = 2 * WORKERS
-#: How long a worker told to stop may take before it is killed.
-STOP_S = 10.0
 _EPS = 1e-9
-_STATS = ("engines", "fills", "built", "closed", "parked")
 
 
 @dataclass(frozen=True)
@@ -69,126 +65,6 @@ class StateAt:
     auctions: list[dict[str, Any]]
     deliveries: list[dict[str, Any]]
     events: int
-
-
-def _checked_answer(ok: Any) -> dict[str, Any]:
-    """The worker's answer, if it has the shape of one (else WireError)."""
-    if not (
-        isinstance(ok, dict)
-        and isinstance(ok.get("state"), dict)
-        and isinstance(ok.get("auctions"), list)
-        and isinstance(ok.get("deliveries"), list)
-        and type(ok.get("events")) is int
-    ):
-        raise WireError("an answer without state, auctions, deliveries and events")
-    return ok
-
-
-def _checked_stats(stats: Any) -> dict[str, int]:
-    if not (isinstance(stats, dict) and all(type(stats.get(k)) is int for k in _STATS)):
-        raise WireError("counts without " + ", ".join(_STATS))
-    return {k: stats[k] for k in _STATS}
-
-
-def _how(code: int) -> str:
-    if code < 0:
-        with contextlib.suppress(ValueError):
-            return f"was killed by {signal.Signals(-code).name}"
-        return f"was killed by signal {-code}"
-    return f"exited with status {code}"
-
-
-class Worker:
-    """One worker process and the requests it holds; `gone` says why it ended, once it has."""
-
-    def __init__(self, proc: asyncio.subprocess.Process) -> None:
-        self.proc = proc
-        self.pid = proc.pid
-        self.pending: dict[int, asyncio.Future[dict[str, Any]]] = {}
-        self.stats = dict.fromkeys(_STATS, 0)
-        self.gone: str | None = None
-        self._stopping: str | None = None
-        self._ids = itertools.count(1)
-        self._write = asyncio.Lock()
-        self.done = asyncio.create_task(self._read())
-
-    async def ask(self, message: dict[str, Any]) -> dict[str, Any]:
-        """Send one request and wait for its answer (Conflict, or Unavailable if it dies)."""
-        if self.gone is not None:
-            raise Unavailable(f"the playback worker (pid {self.pid}) {self.gone}; try again")
-        rid = next(self._ids)
-        try:
-            frame = encode({**message, "id": rid})
-        except WireError as exc:  # a mission with more actions than a frame holds
-            raise Conflict(f"this mission cannot be played back: {exc}") from exc
-        future: asyncio.Future[dict[str, Any]] = asyncio.get_running_loop().create_future()
-        self.pending[rid] = future
-        try:
-            async with self._write:
-                assert self.proc.stdin is not None
-                # a dead worker's pipe refuses (ConnectionError, or RuntimeError once asyncio has
-                # closed it): `_read` answers the future with why it died
-                with contextlib.suppress(ConnectionError, RuntimeError):
-                    self.proc.stdin.write(frame)
-                    await self.proc.stdin.drain()
-            return await future
-        finally:
-            self.pending.pop(rid, None)
-
-    async def stop(self, why: str) -> None:
-        """Ask the worker to stop, kill it if it has not within `STOP_S`; wait for its end."""
-        self._stopping = why
-        assert self.proc.stdin is not None
-        with contextlib.suppress(ConnectionError, RuntimeError):
-            self.proc.stdin.write(encode({"op": "stop"}))
-            self.proc.stdin.close()
-        try:
-            await asyncio.wait_for(asyncio.shield(self.done), STOP_S)
-        except TimeoutError:
-            with contextlib.suppress(ProcessLookupError):
-                self.proc.kill()
-            await self.done
-
-    async def _read(self) -> None:
-        """Take frames until the worker's stdout ends; then fail whatever it still held."""
-        assert self.proc.stdout is not None
-        why = None
-        try:
-            while (msg := await read_frame(self.proc.stdout)) is not None:
-                self._take(msg)
-        except Exception as exc:  # WireError, or anything a broken frame could cause in `_take`
-            why = f"sent a malformed frame ({exc}) and was stopped"
-            with contextlib.suppress(ProcessLookupError):
-                self.proc.kill()
-        code = await self.proc.wait()
-        self.gone = self._stopping or why or _how(code)
-        self.stats["engines"] = self.stats["fills"] = self.stats["parked"] = 0
-        for future in self.pending.values():
-            if not future.done():
-                future.set_exception(
-                    Unavailable(
-                        f"the playback worker (pid {self.pid}) {self.gone} while this scrub "
-                        "was waiting for it; try again: the next scrub starts a new worker"
-                    )
-                )
-
-    def _take(self, msg: dict[str, Any]) -> None:
-        if "stats" in msg:
-            self.stats = _checked_stats(msg["stats"])
-        rid = msg.get("id")
-        if rid is None:
-            return
-        future = self.pending.get(rid) if type(rid) is int else None
-        if future is None or future.done():
-            return  # its caller went away (the answer is dropped)
-        if "ok" in msg:
-            future.set_result(_checked_answer(msg["ok"]))
-        elif msg.get("error") == "conflict":
-            future.set_exception(Conflict(str(msg.get("message"))))
-        else:
-            future.set_exception(
-                Unavailable(f"the playback worker failed on this scrub: {msg.get('message')}")
-            )
 
 
 class Playback:
