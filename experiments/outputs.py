@@ -16,11 +16,12 @@ from experiments.figures import (
     save,
 )
 from experiments.journal import write_atomic
-from experiments.report import fmt_num, fmt_p, render_report, seeds_phrase, verdict
+from experiments.report import fmt_num, fmt_p, render_report
 from experiments.spec import SweepSpec
 from experiments.stats import paired_diffs
 from experiments.summary import build_summary, completed_rows, groups_by_policy
 from experiments.table import numeric_columns, run_rows, write_csv
+from experiments.verdict import seeds_phrase, verdict
 
 FIG_DIR = "figures"
 
