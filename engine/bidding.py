@@ -86,13 +86,16 @@ class BidMemory:
     every_round: bool  # scenario protocol: a busy robot's -inf on every round, not once
 
 
-def refused_all(sent: Mapping[str, tuple[int, float]], targets: Sequence[OpenAuction]) -> bool:
-    """Has the robot bid -inf in every one of these auctions? Then, while it is busy (and
-    `every_round` is off), neither rule below sends anything: a robot may skip asking them.
-    Most robots are busy most of the time, and each hears every announcement."""
+def refused_all(
+    sent: Mapping[str, tuple[int, float]], targets: Sequence[OpenAuction], once: bool = False
+) -> bool:
+    """Has the robot bid -inf in every one of these auctions (`once`: bid anything at all)?
+    Then, while it is busy (and `every_round` is off), neither rule below sends anything (with
+    `once`, `distance_bids` only, which never withdraws a finite bid): a robot may skip asking
+    them. Most robots are busy most of the time, and each hears every announcement."""
     for a in targets:
         prev = sent.get(a.auction_id)
-        if prev is None or prev[1] != -math.inf:
+        if prev is None or (prev[1] != -math.inf and not once):
             return False
     return True
 

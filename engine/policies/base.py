@@ -85,6 +85,16 @@ class Policy:
         overrides `bid_targets` or `bids` below the one that answers here answers again."""
         return self.targets_from_list
 
+    def busy_bids_once(self) -> bool:
+        """Does `bids` send a busy robot nothing in a target it has bid in at all, finite or
+        -inf (`every_round` off)? True of `distance_bids`, the default: a finite bid made while
+        free is never withdrawn. `time_bids` withdraws it, so there only -inf is final. Under
+        a policy that answers yes, a quiet robot that bids in every auction is asked only about
+        those it has not bid in (Policy 3's busy excavators keep finite bids in hundreds of
+        sites at scale 100). A class that overrides `bids` answers again (`register_policy`
+        checks)."""
+        return True
+
     def no_targets_until(self, view: RobotView) -> float | None:
         """A time up to which `bid_targets` gives this robot nothing, whatever its auction
         list, unless something that stirs it changes first (engine/round_board.py: its

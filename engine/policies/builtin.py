@@ -143,6 +143,9 @@ class Lookahead(EarlyTransports):
     def bids(self, view: RobotView, targets: Sequence[OpenAuction], mem: BidMemory) -> Bids:
         return (time_bids if self.time_bids else distance_bids)(view, targets, mem)
 
+    def busy_bids_once(self) -> bool:
+        return not self.time_bids  # time bids withdraw a finite bid once the robot is busy
+
     def collects_awards(self) -> bool:
         return self.bid_all
 

@@ -36,7 +36,7 @@ def _check_targets_from_list(cls: type[Policy]) -> None:
     """A class that overrides `bid_targets` or `bids` below the class that declared
     `targets_from_list = True`, or that answered `targets_from_list_for` or
     `no_targets_until`, must state the flag (or the answer) again: the promise was about
-    other code."""
+    other code. So must one that overrides `bids` about `busy_bids_once`."""
     promises = [("targets_from_list", "targets_from_list = True")] if cls.targets_from_list else []
     for answer in ("targets_from_list_for", "no_targets_until"):
         if _owner(cls, answer) is not Policy:
@@ -49,6 +49,12 @@ def _check_targets_from_list(cls: type[Policy]) -> None:
                     f"{cls.__name__}: overrides {method} but inherits {what} "
                     f"from {flag.__name__}; state it again in the class"
                 )
+    bids, once = _owner(cls, "bids"), _owner(cls, "busy_bids_once")
+    if bids is not Policy and not issubclass(once, bids):
+        raise ValueError(
+            f"{cls.__name__}: {bids.__name__} overrides bids but busy_bids_once is answered by "
+            f"{once.__name__}; answer it again in the class"
+        )
 
 
 def check_policy(cls: type[Policy]) -> None:

@@ -97,8 +97,10 @@ class Bidder(Pricing):
         self.biddable: dict[str, OpenAuction] = {}  # announced, open, and I can serve them
         self._in_order: list[OpenAuction] | None = None  # biddable by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
-        # the auctions of _in_order in which my bid is not -inf (kept with it; `_refused_all`)
+        # the auctions of _in_order in which my bid is not -inf, and those I have not bid in at
+        # all (kept with it; `_unsaid`)
         self._unrefused: set[str] = set()
+        self._unbid: set[str] = set()
         self._quiet_on: list[OpenAuction] | None = None  # busy with nothing to send
         self._quiet_policy: Policy | None = None
         self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
@@ -122,6 +124,8 @@ class Bidder(Pricing):
         prev = self.my_bids.get(info.auction_id)
         if prev is None or prev[1] != -math.inf:
             self._unrefused.add(info.auction_id)
+        if prev is None:
+            self._unbid.add(info.auction_id)
 
     def forget_auction(self, auction_id: str) -> OpenAuction | None:
         self.robot.rounds.forget(auction_id)
@@ -134,6 +138,7 @@ class Bidder(Pricing):
         self._in_order = order
         self._stir()
         self._unrefused.discard(auction_id)
+        self._unbid.discard(auction_id)
         return info
 
     def auctions_in_order(self) -> list[OpenAuction]:
@@ -150,6 +155,7 @@ class Bidder(Pricing):
                 for a in self._in_order
                 if (prev := sent.get(a.auction_id)) is None or prev[1] != -math.inf
             }
+            self._unbid = {a.auction_id for a in self._in_order if a.auction_id not in sent}
         return self._in_order
 
     def auctioneers_changed(self) -> None:
@@ -309,18 +315,21 @@ class Bidder(Pricing):
             robot.load(),
             robot.mobility.pos,
         )
-        if quiet and policy.targets_pure and self._refused_all():
-            # no room, and -inf said in every auction I know: no bid, whatever the targets
+        once = policy.busy_bids_once()
+        if quiet and policy.targets_pure and not self._unsaid(once):
+            # no room, and -inf (`once`: anything) said in every auction I know: no bid,
+            # whatever the targets
             self._bid_situation = situation
             self._note_quiet(auctions, policy)
             return
         targets = policy.bid_targets(self, auctions)
         if quiet and policy.targets_pure and targets == auctions:
-            # the whole list, answered just above (`_refused_all`): some I have not refused.
-            # A refused target adds no bid (`Policy.targets_from_list`): ask about the others
+            # the whole list, answered just above (`_unsaid`): some I have not refused.
+            # A refused target adds no bid (`Policy.targets_from_list`; `once`, nor one I bid
+            # in at all): ask about the others
             if policy.targets_from_list_for(self):
-                targets = self._unrefused_in_order()
-        elif quiet and refused_all(self.my_bids, targets):
+                targets = self._unsaid_in_order(once)
+        elif quiet and refused_all(self.my_bids, targets, once):
             self._bid_situation = situation
             self._note_quiet(auctions, policy)
             return
@@ -372,20 +381,20 @@ class Bidder(Pricing):
             if self._board is not None:
                 self._board.settle(self.name)
 
-    def _refused_all(self) -> bool:
-        """Have I bid -inf in every open auction I can serve? `_unrefused` answers at once: it
-        is kept wherever `_in_order` or `my_bids` changes (a busy Policy 4 robot used to scan
+    def _unsaid(self, once: bool) -> set[str]:
+        """The open auctions I can serve in which, busy, I may still have something to say:
+        those I have not bid -inf in (`once`, `Policy.busy_bids_once`: not bid in at all).
+        Kept wherever `_in_order` or `my_bids` changes (a busy Policy 4 robot used to scan
         every open auction, thousands at scale 100, after each of its bids)."""
         self.auctions_in_order()
-        return not self._unrefused
+        return self._unbid if once else self._unrefused
 
-    def _unrefused_in_order(self) -> list[OpenAuction]:
-        """The auctions of `auctions_in_order` I have not bid -inf in (`_unrefused`), in its
-        order: a busy robot that bids in every auction, Policy 3's or 4's, scanned thousands
-        at scale 100 to find the few it had not refused."""
-        self.auctions_in_order()
+    def _unsaid_in_order(self, once: bool) -> list[OpenAuction]:
+        """`_unsaid` in the order of `auctions_in_order`: a busy robot that bids in every
+        auction, Policy 3's or 4's, scanned thousands at scale 100 to find the few it may
+        still bid in."""
         biddable = self.biddable
-        return sorted((biddable[aid] for aid in self._unrefused), key=_OPENING)
+        return sorted((biddable[aid] for aid in self._unsaid(once)), key=_OPENING)
 
     def _within_reach(self, bids: Bids) -> Bids:
         """Energy: a task I could not finish and still reach a charger gets -inf, and then I
@@ -411,6 +420,7 @@ class Bidder(Pricing):
                 self._unrefused.discard(aid)
             else:
                 self._unrefused.add(aid)
+            self._unbid.discard(aid)
         self._quiet_on = None
         if (
             self._silent_when_busy

@@ -12,9 +12,12 @@ injected tasks) and buses (ideal, lossy, late):
   instead of every announcement going through `on_message`;
 - on the ideal bus a later round reaches only the robots it may change something for, and
   the board of rounds notes it for the rest (`engine.round_board`);
-- a busy robot that said -inf in every target skips the bidding rules
-  (`engine.bidding.refused_all`), and under a policy whose targets come from the auction
-  list alone it is not asked again until the list or its bids change (`Bidder._note_quiet`);
+- a busy robot that said -inf in every target (or anything at all, under a policy whose
+  busy robots never withdraw a bid: `Policy.busy_bids_once`) skips the bidding rules
+  (`engine.bidding.refused_all`, `Bidder._unsaid`), one that bids in every auction is asked
+  only about those it may still bid in (`Bidder._unsaid_in_order`), and under a policy whose
+  targets come from the auction list alone it is not asked again until the list or its bids
+  change (`Bidder._note_quiet`);
 - a robot's auctions in opening order are kept up to date as auctions come and go
   (`Bidder.note_auction`, `Bidder.forget_auction`), not sorted again;
 - the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
@@ -118,7 +121,9 @@ def _plain_engine() -> Iterator[None]:
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(EmbeddedBus, "_audience", lambda self, msg: list(self._subscribers.items()))
         mp.setattr(EmbeddedBus, "_everyone_now", lambda self: list(self._subscribers.items()))
-        mp.setattr(engine.robots.bidder, "refused_all", lambda sent, targets: False)
+        mp.setattr(engine.robots.bidder, "refused_all", lambda *args: False)
+        mp.setattr(Bidder, "_unsaid", lambda self, once: {""})  # never "nothing left to say"
+        mp.setattr(Bidder, "_unsaid_in_order", lambda self, once: self.auctions_in_order())
         mp.setattr(Liveness, "silent", _brute_silent)
         mp.setattr(engine.robots.bidder.Bidder, "_note_quiet", lambda self, auctions, policy: None)
         mp.setattr(Bidder, "note_auction", _plain_note)
@@ -279,10 +284,24 @@ def test_a_policy_that_bids_otherwise_must_say_again_its_targets_come_from_the_l
         def bid_targets(self, view: Any, auctions: Any) -> Any:
             return list(auctions)[-1:]
 
+    class TimeBids(Restated):
+        targets_from_list = True
+
+        def bids(self, view: Any, targets: Any, mem: Any) -> Any:
+            return time_bids(view, targets, mem)
+
+    class TimeBidsAnswered(TimeBids):
+        def busy_bids_once(self) -> bool:
+            return False
+
     assert FirstComeFirstServed.targets_from_list
     with pytest.raises(ValueError, match="ByPartner: overrides bid_targets"):
         check_policy(ByPartner)
     check_policy(Restated)
+    # `busy_bids_once` is a promise about `bids`: time bids withdraw a finite bid
+    with pytest.raises(ValueError, match="TimeBids overrides bids but busy_bids_once"):
+        check_policy(TimeBids)
+    check_policy(TimeBidsAnswered)
     assert not POLICIES["coalition"].targets_from_list
     assert POLICIES["lookahead"].targets_from_list
 
@@ -349,6 +368,10 @@ def test_a_busy_robot_is_asked_only_about_the_targets_it_has_not_refused(
     mem = BidMemory(busy=True, sent=sent, rounds=latest, changed=changed, every_round=False)
     open_ones = [a for a in targets if sent.get(a.auction_id, (0, 0.0))[1] != -math.inf]
     assert rule(view, targets, mem) == rule(view, open_ones, mem)
+    if rule is distance_bids:  # `Policy.busy_bids_once`: nor about those it bid in at all
+        unbid = [a for a in targets if a.auction_id not in sent]
+        assert rule(view, targets, mem) == rule(view, unbid, mem)
+        assert refused_all(sent, unbid, once=True) == (rule(view, targets, mem) == [])
 
 
 def test_a_policy_below_one_that_answers_per_robot_must_answer_again():
@@ -438,6 +461,33 @@ def test_a_busy_hauler_whose_partner_is_not_on_the_team_is_quiet() -> None:
         m.run()
     assert m.status == "completed"
     assert {"hauler-5", "hauler-6"} <= quiet, quiet
+
+
+@pytest.mark.parametrize(("policy", "expected"), [("nearest", True), ("lookahead", False)])
+def test_a_busy_policy_3_excavator_with_finite_bids_left_is_quiet(
+    policy: str, expected: bool
+) -> None:
+    """Policy 3's free excavators bid in every open site, win one and keep their finite bids
+    in the others (distance bids never withdraw: `Policy.busy_bids_once`). Busy, they have
+    nothing more to say there, so they are quiet instead of being asked at every round of
+    every site they bid in (hundreds at scale 100); Policy 4's time bids withdraw, so its
+    robots with a finite bid left are not."""
+    quiet_with_finite: set[str] = set()
+    note = Bidder._note_quiet
+
+    def noted(self: Bidder, auctions: list[OpenAuction], policy: Any) -> None:
+        note(self, auctions, policy)
+        if self._quiet_on is auctions and any(
+            math.isfinite(self.my_bids.get(a.auction_id, (0, -math.inf))[1]) for a in auctions
+        ):
+            quiet_with_finite.add(self.robot.name)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Bidder, "_note_quiet", noted)
+        m = Mission(reference_scenario().scaled(2), 0, policy)  # at scale 1 no site waits
+        m.advance(1500.0)
+        m.close()
+    assert bool(quiet_with_finite) == expected, quiet_with_finite
 
 
 def test_a_quiet_robot_is_quiet_no_more_once_it_has_room():
