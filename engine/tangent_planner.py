@@ -22,7 +22,10 @@ Its excess over the true arc is tan(δ/2)/(δ/2) − 1 ≈ 0.05 % for δ = 5°.
 The planner answers from goal fields (engine/tangent_field.py): many robots price one goal,
 so its side of the work is done once, over the whole graph as arrays
 (engine/tangent_arrays.py); `TangentGraph.shortest` is one A* query (engine/tangent_query.py),
-with the same lengths.
+with the same lengths. One robot pricing many goals (Policy 3's excavator after each dig,
+hundreds of waiting sites at scale 100) is the same thing the other way round: the graph is
+symmetric, so the field of its start answers every goal, and the route found from the goal
+is driven backwards (`_backwards`).
 
 Nothing here is random: the same world and query always give the same path.
 """
@@ -56,6 +59,9 @@ _FIELD_BYTES = 104 * 2**20
 """More are kept while their arrays fit in this: 32 at 600 craters (3.2 MB each, where memory
 is tight), 176 at 180 (0.6 MB). Policy 3 prices every open site from each excavator's new
 place, more goals than 32: at scale 30 the fields it made again were a third of its time."""
+_SWEEP = 2
+"""Goals in a row, from one start, whose fields are not kept: from then on that start's own
+field answers (a robot pricing many open tasks), until it asks a goal whose field is kept."""
 _FANS = 1024
 """Recent starts whose fans a planner keeps (~0.1 MB each at 600 craters): an idle robot
 prices every task it hears from where it stands (scale 100's first 1,000 simulated seconds:
@@ -304,6 +310,7 @@ class TangentPlanner(ShortcutPlanner):
         self._fields: OrderedDict[Point, GoalField] = OrderedDict()
         self._fields_kept = _FIELDS  # set with the graph's size (`flat`)
         self._fans: OrderedDict[Point, StartFan] = OrderedDict()
+        self._sweep: tuple[Point | None, int] = (None, 0)  # a start, its goals not kept in a row
 
     @property
     def graph(self) -> TangentGraph:
@@ -332,14 +339,43 @@ class TangentPlanner(ShortcutPlanner):
 
     def _solve(self, start: Point, goal: Point) -> Path:
         # plan() answered a free straight segment already
+        if self._sweeping(start, goal):
+            back = self.field(start).route(self.fan(goal), direct_blocked=True)
+            return polyline(start, goal, None if back is None else _backwards(back))
         route = self.field(goal).route(self.fan(start), direct_blocked=True)
         return polyline(start, goal, route)
+
+    def _sweeping(self, start: Point, goal: Point) -> bool:
+        """Is this start pricing goal after goal whose fields are not kept (`_SWEEP` in a
+        row)? Then its own field answers: one Dijkstra instead of one per goal, and the fields
+        other robots share are not pushed out."""
+        if goal in self._fields:
+            self._sweep = (None, 0)
+            return False
+        last, missed = self._sweep
+        missed = missed + 1 if last == start else 1
+        self._sweep = (start, missed)
+        return missed >= _SWEEP
 
     def close(self) -> None:
         self._graph = None
         self._flat = None
         self._fields.clear()
         self._fans.clear()
+        self._sweep = (None, 0)
+
+
+def _backwards(route: list[Leg]) -> list[Leg]:
+    """A route driven the other way: the same points, so the same polyline reversed. The
+    graph keeps each edge both ways as exact reversals (`TangentGraph._link`), and a
+    field's ends and a fan's tangent points are the same numbers, so this is the route the
+    goal's field gives, leg for leg (tests/engine/test_tangent_field.py)."""
+    return [
+        Arc(leg.rim, leg.p, leg.q, leg.a0, leg.sweep, not leg.reverse)
+        if isinstance(leg, Arc)
+        else (leg[1], leg[0])
+        for leg in reversed(route)
+    ]
 
 
 def _recent(kept: OrderedDict[Point, T], key: Point, most: int, make: Callable[[], T]) -> T:

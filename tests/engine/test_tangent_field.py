@@ -122,3 +122,60 @@ def test_around_one_crater_and_between_two() -> None:
                 pairs += [(start, goal), (goal, start)]
         assert len(pairs) > 40
         assert_field_matches_query(world, pairs)
+
+
+@pytest.mark.parametrize(("scale", "starts"), [(1, 40), (10, 30), (100, 12)])
+def test_a_start_pricing_many_goals_gets_each_goals_own_route(scale: int, starts: int) -> None:
+    """A start that prices goal after goal whose fields are not kept is answered from its
+    own field, the route found from the goal driven backwards (`TangentPlanner._sweeping`,
+    `_backwards`). Bids, and so every event log, are computed from the polyline, so it must
+    be the goal field's point for point, not only as long: starts anywhere and beside
+    craters, several goals each."""
+    world = generate_world(reference_scenario().scaled(scale), np.random.default_rng(scale + 5))
+    rng = np.random.default_rng(200 + scale)
+    by_goal, by_start = TangentPlanner(world), TangentPlanner(world)
+    by_start._graph, by_start._flat = by_goal.graph, by_goal.flat  # one graph opened, not two
+    by_start._fields_kept = by_goal._fields_kept
+    points = [free_point(world, rng) for _ in range(starts)]
+    blocked = 0
+    for start in points:
+        for k in rng.choice(len(points), 6, replace=False).tolist():
+            goal = points[k]
+            if goal == start:
+                continue
+            by_goal._sweep = (None, 0)  # the goal's field answers
+            by_start._sweep = (start, 99)  # the start's field answers
+            try:
+                want = by_goal.plan(start, goal)
+            except PlanningError:
+                with pytest.raises(PlanningError):
+                    by_start.plan(start, goal)
+                continue
+            got = by_start.plan(start, goal)
+            assert got == want, (start, goal)
+            blocked += len(want) > 2
+    assert blocked > 20  # most pairs go round a crater: the fields were asked
+
+
+def test_a_start_that_prices_many_goals_makes_one_field_not_one_per_goal() -> None:
+    """Policy 3's excavator after a dig prices every waiting site: from the second goal in a
+    row whose field is not kept, its own field answers the rest, so the fields other robots
+    share stay kept."""
+    world = generate_world(reference_scenario().scaled(10), np.random.default_rng(11))
+    rng = np.random.default_rng(12)
+    planner = TangentPlanner(world)
+    start = free_point(world, rng)
+    goals = [free_point(world, rng) for _ in range(40)]
+    made: list[Point] = []
+    field = planner.field
+
+    def counted(goal: Point) -> object:
+        if goal not in planner._fields:
+            made.append(goal)
+        return field(goal)
+
+    planner.field = counted  # type: ignore[method-assign]
+    answered = [planner.plan(start, g) for g in goals]
+    blocked = [g for g, path in zip(goals, answered, strict=True) if len(path) > 2]
+    assert len(blocked) > 10
+    assert made == [blocked[0], start]
