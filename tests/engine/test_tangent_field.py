@@ -2,7 +2,8 @@
 over the same graph (engine/tangent_query.py): on the reference world and its scale-10 and
 scale-100 versions, for starts and goals anywhere, hugging a rim (just inside the planned rim
 but outside the crater's clearance, or just outside it) and around one crater, with goals
-shared by many starts as in an auction, and fields dropped and made again."""
+shared by many starts as in an auction, and fields dropped and made again; and a start that
+prices many goals, answered from its own field, gets each goal's own route."""
 
 from __future__ import annotations
 
