@@ -6,9 +6,11 @@ import math
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
 import pytest
 
 from experiments.bound import (
+    _LEG_BLOCK,
     Bound,
     BoundWorld,
     bound_columns,
@@ -17,6 +19,7 @@ from experiments.bound import (
     mst_length,
     run_bound,
 )
+from experiments.bound import _legs_clear as legs_clear
 
 BASE = BoundWorld(
     plant=(0.0, 0.0),
@@ -107,3 +110,38 @@ def test_bound_columns_per_run_and_apriori() -> None:
     assert rows[3]["lower_bound_s"] is None and rows[3]["makespan_ratio_apriori"] is not None
     assert per_seed == [{"seed": 0, "lower_bound_apriori_s": apriori, **{
         f"{k}_s": v for k, v in lower_bound(BASE).terms.items()}}]  # fmt: skip
+
+
+def test_legs_are_tested_against_every_crater_as_one_at_a_time_would() -> None:
+    """The legs' crater test runs in blocks of legs against every crater at once; it answers
+    as the plain loop does (closest point of the segment to each centre, past the inflated
+    radius), across block boundaries and for legs of zero length."""
+    rng = np.random.default_rng(5)
+    craters = tuple(
+        (float(x), float(y), float(r))
+        for x, y, r in zip(
+            rng.uniform(0, 200, 40), rng.uniform(0, 200, 40), rng.uniform(1, 8, 40), strict=True
+        )
+    )
+    w = replace(BASE, craters=craters)
+    route = rng.uniform(0, 200, (2 * _LEG_BLOCK + 7, 2))
+    route[10] = route[9]  # a leg of zero length
+
+    def plain(p: np.ndarray, q: np.ndarray) -> bool:
+        dx, dy = q[0] - p[0], q[1] - p[1]
+        seg2 = dx * dx + dy * dy
+        for cx, cy, cr in craters:
+            u = (
+                0.0
+                if seg2 == 0
+                else min(1.0, max(0.0, ((cx - p[0]) * dx + (cy - p[1]) * dy) / seg2))
+            )
+            if math.hypot(p[0] + u * dx - cx, p[1] + u * dy - cy) <= cr + w.clearance:
+                return False
+        return True
+
+    want = [plain(route[i], route[i + 1]) for i in range(len(route) - 1)]
+    got = legs_clear(w, route).tolist()
+    assert got == want
+    assert 0 < sum(want) < len(want)  # some legs clear, some blocked
+    assert legs_clear(BASE, route).all()  # no craters: every leg clear
