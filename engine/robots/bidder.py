@@ -315,7 +315,7 @@ class Bidder(Pricing):
             robot.load(),
             robot.mobility.pos,
         )
-        once = policy.busy_bids_once()
+        once = quiet and policy.busy_bids_once()  # read only when quiet
         if quiet and policy.targets_pure and not self._unsaid(once):
             # no room, and -inf (`once`: anything) said in every auction I know: no bid,
             # whatever the targets
