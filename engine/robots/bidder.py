@@ -1,6 +1,7 @@
 """The bidding part of a robot that can carry out tasks (docs/spec.md §6.2–6.5): the open
-auctions it could serve, which to bid in (the policy decides), the utility it bids, answering
-awards, and holding an accepted award until the auctioneer's Close confirms it.
+auctions it could serve (its book of them: `engine.robots.known_auctions`), which to bid in
+(the policy decides), the utility it bids, answering awards, and holding an accepted award
+until the auctioneer's Close confirms it.
 
 Scouts and the operator carry out no auctioned task and have no bidding part. The policy
 reads the robot through this part (`engine.bidding.RobotView`).
@@ -8,10 +9,8 @@ reads the robot through this part (`engine.bidding.RobotView`).
 
 from __future__ import annotations
 
-import bisect
 import math
 from collections import deque
-from operator import attrgetter
 from typing import TYPE_CHECKING, Any, Protocol
 
 import simpy
@@ -20,6 +19,7 @@ from engine.bidding import BidMemory, Bids, OpenAuction, refused_all
 from engine.geometry import Point
 from engine.messages import Ack, Award, Bid, Heartbeat, TaskType
 from engine.policies import PendingAward, Policy
+from engine.robots.known_auctions import KnownAuctions
 from engine.robots.pricing import PeerWatch, Pricing
 from engine.round_board import Rounds
 
@@ -29,9 +29,6 @@ if TYPE_CHECKING:
     from engine.robots.charging import Charging
     from engine.robots.core import Assignment
     from engine.robots.mobility import Mobility
-
-_OPENING = attrgetter("order")
-"""An open auction's place in opening order (`OpenAuction.order`), as a sort key."""
 
 
 class BiddingRobot(Protocol):
@@ -94,13 +91,11 @@ class Bidder(Pricing):
 
     def reset(self) -> None:
         """Forget everything heard (a new life after a failure)."""
-        self.biddable: dict[str, OpenAuction] = {}  # announced, open, and I can serve them
-        self._in_order: list[OpenAuction] | None = None  # biddable by opening order
         self.my_bids: dict[str, tuple[int, float]] = {}
-        # the auctions of _in_order in which my bid is not -inf, and those I have not bid in at
-        # all (kept with it; `_unsaid`)
-        self._unrefused: set[str] = set()
-        self._unbid: set[str] = set()
+        # the open auctions I can serve, and those I may still bid in (`KnownAuctions`)
+        self.known = KnownAuctions(self.robot, self.my_bids, self._stir)
+        # the same dict as the book's (hearing and the board of rounds ask it here)
+        self.biddable: dict[str, OpenAuction] = self.known.biddable
         self._quiet_on: list[OpenAuction] | None = None  # busy with nothing to send
         self._quiet_policy: Policy | None = None
         self._bid_situation: tuple[object, ...] = ()  # what my time bids were computed from
@@ -110,58 +105,16 @@ class Bidder(Pricing):
 
     # --- what I know of the auctions I could serve ---------------------------------------
     def note_auction(self, info: OpenAuction) -> None:
-        """An auction I can serve opened. Its place in `_in_order` is found by bisection
-        rather than by sorting again: hundreds of robots hear each of hundreds of open
-        auctions at scale, and a sort per announcement per robot was a tenth of a run."""
-        self.biddable[info.auction_id] = info
-        order = self._in_order
-        if order is None or info.auctioneer in self.robot.down:
-            return
-        order = order.copy()  # a new list: a caller may still hold the old one
-        bisect.insort(order, info, key=_OPENING)
-        self._in_order = order
-        self._stir()
-        prev = self.my_bids.get(info.auction_id)
-        if prev is None or prev[1] != -math.inf:
-            self._unrefused.add(info.auction_id)
-        if prev is None:
-            self._unbid.add(info.auction_id)
+        """An auction I can serve opened (`KnownAuctions.note_auction`)."""
+        self.known.note_auction(info)
 
     def forget_auction(self, auction_id: str) -> OpenAuction | None:
         self.robot.rounds.forget(auction_id)
-        info = self.biddable.pop(auction_id, None)
-        order = self._in_order
-        if info is None or order is None or info.auctioneer in self.robot.down:
-            return info
-        order = order.copy()
-        del order[bisect.bisect_left(order, info.order, key=_OPENING)]  # openings are unique
-        self._in_order = order
-        self._stir()
-        self._unrefused.discard(auction_id)
-        self._unbid.discard(auction_id)
-        return info
-
-    def auctions_in_order(self) -> list[OpenAuction]:
-        """Open auctions I can serve, by opening order, minus those of auctioneers I think down."""
-        if self._in_order is None:
-            down = self.robot.down
-            self._in_order = sorted(
-                (a for a in self.biddable.values() if a.auctioneer not in down),
-                key=_OPENING,
-            )
-            sent = self.my_bids
-            self._unrefused = {
-                a.auction_id
-                for a in self._in_order
-                if (prev := sent.get(a.auction_id)) is None or prev[1] != -math.inf
-            }
-            self._unbid = {a.auction_id for a in self._in_order if a.auction_id not in sent}
-        return self._in_order
+        return self.known.forget_auction(auction_id)
 
     def auctioneers_changed(self) -> None:
         """A peer was found down or came back: its auctions count again, or no more."""
-        self._in_order = None
-        self._stir()
+        self.known.auctioneers_changed()
 
     def closed(self, auction_id: str) -> OpenAuction | None:
         """The auction closed (its Close): forgotten, with my bid in it."""
@@ -298,7 +251,8 @@ class Bidder(Pricing):
         robot = self.robot
         if not robot.participating or robot.capability is None:
             return
-        auctions = self.auctions_in_order()
+        known = self.known
+        auctions = known.auctions_in_order()
         if not auctions:
             return
         policy = self.ctx.policy
@@ -316,7 +270,7 @@ class Bidder(Pricing):
             robot.mobility.pos,
         )
         once = quiet and policy.busy_bids_once()  # read only when quiet
-        if quiet and policy.targets_pure and not self._unsaid(once):
+        if quiet and policy.targets_pure and not known.unsaid(once):
             # no room, and -inf (`once`: anything) said in every auction I know: no bid,
             # whatever the targets
             self._bid_situation = situation
@@ -324,11 +278,11 @@ class Bidder(Pricing):
             return
         targets = policy.bid_targets(self, auctions)
         if quiet and policy.targets_pure and targets == auctions:
-            # the whole list, answered just above (`_unsaid`): some I have not refused.
+            # the whole list, answered just above (`unsaid`): some I have not refused.
             # A refused target adds no bid (`Policy.targets_from_list`; `once`, nor one I bid
             # in at all): ask about the others
             if policy.targets_from_list_for(self):
-                targets = self._unsaid_in_order(once)
+                targets = known.unsaid_in_order(once)
         elif quiet and refused_all(self.my_bids, targets, once):
             self._bid_situation = situation
             self._note_quiet(auctions, policy)
@@ -358,7 +312,7 @@ class Bidder(Pricing):
         now). Busy, with neither my auction list nor the policy changed since I last had
         nothing to send (`_note_quiet`): until stirred. Or a policy's promise of no targets
         whatever the list (`Policy.no_targets_until`): until its time."""
-        order = self._in_order
+        order = self.known.in_order
         policy = self.ctx.policy
         if (
             order is not None
@@ -381,21 +335,6 @@ class Bidder(Pricing):
             if self._board is not None:
                 self._board.settle(self.name)
 
-    def _unsaid(self, once: bool) -> set[str]:
-        """The open auctions I can serve in which, busy, I may still have something to say:
-        those I have not bid -inf in (`once`, `Policy.busy_bids_once`: not bid in at all).
-        Kept wherever `_in_order` or `my_bids` changes (a busy Policy 4 robot used to scan
-        every open auction, thousands at scale 100, after each of its bids)."""
-        self.auctions_in_order()
-        return self._unbid if once else self._unrefused
-
-    def _unsaid_in_order(self, once: bool) -> list[OpenAuction]:
-        """`_unsaid` in the order of `auctions_in_order`: a busy robot that bids in every
-        auction, Policy 3's or 4's, scanned thousands at scale 100 to find the few it may
-        still bid in."""
-        biddable = self.biddable
-        return sorted((biddable[aid] for aid in self._unsaid(once)), key=_OPENING)
-
     def _within_reach(self, bids: Bids) -> Bids:
         """Energy: a task I could not finish and still reach a charger gets -inf, and then I
         go to charge (so does every other bid of this look: I am busy charging)."""
@@ -413,14 +352,7 @@ class Bidder(Pricing):
         aid = a.auction_id
         prev = self.my_bids.get(aid)
         self.my_bids[aid] = (rnd, utility)
-        info = self.biddable.get(aid)
-        listed = info is not None and info.auctioneer not in self.robot.down
-        if self._in_order is not None and listed:  # an auction of _in_order
-            if utility == -math.inf:
-                self._unrefused.discard(aid)
-            else:
-                self._unrefused.add(aid)
-            self._unbid.discard(aid)
+        self.known.note_bid(aid, utility)
         self._quiet_on = None
         if (
             self._silent_when_busy

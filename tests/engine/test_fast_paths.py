@@ -14,12 +14,12 @@ injected tasks) and buses (ideal, lossy, late):
   the board of rounds notes it for the rest (`engine.round_board`);
 - a busy robot that said -inf in every target (or anything at all, under a policy whose
   busy robots never withdraw a bid: `Policy.busy_bids_once`) skips the bidding rules
-  (`engine.bidding.refused_all`, `Bidder._unsaid`), one that bids in every auction is asked
-  only about those it may still bid in (`Bidder._unsaid_in_order`), and under a policy whose
-  targets come from the auction list alone it is not asked again until the list or its bids
-  change (`Bidder._note_quiet`);
+  (`engine.bidding.refused_all`, `KnownAuctions.unsaid`), one that bids in every auction is
+  asked only about those it may still bid in (`KnownAuctions.unsaid_in_order`), and under a
+  policy whose targets come from the auction list alone it is not asked again until the list
+  or its bids change (`Bidder._note_quiet`);
 - a robot's auctions in opening order are kept up to date as auctions come and go
-  (`Bidder.note_auction`, `Bidder.forget_auction`), not sorted again;
+  (`KnownAuctions.note_auction`, `KnownAuctions.forget_auction`), not sorted again;
 - the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
 - the crater index looks only at the buckets a segment passes through (`CraterIndex`).
 """
@@ -50,6 +50,7 @@ from engine.liveness import HISTORY, Liveness
 from engine.policies import FirstComeFirstServed, check_policy
 from engine.robots.base import Robot
 from engine.robots.bidder import Bidder
+from engine.robots.known_auctions import KnownAuctions
 from engine.scenario import Crater
 from engine.world import CLEARANCE, CraterIndex
 from tests.engine.factories import play_actions, small_scenario
@@ -60,16 +61,15 @@ def _brute_silent(self: Liveness, receiver: str, now: float, timeout: float) -> 
     return [n for i, n in enumerate(self.names) if i != r and self.heard[r, i] < now - timeout]
 
 
-def _plain_note(self: Bidder, info: OpenAuction) -> None:
+def _plain_note(self: KnownAuctions, info: OpenAuction) -> None:
     self.biddable[info.auction_id] = info
-    self._in_order = None
+    self.in_order = None
 
 
-def _plain_forget(self: Bidder, auction_id: str) -> OpenAuction | None:
-    self.robot.rounds.forget(auction_id)
-    info = self.biddable.pop(auction_id, None)
+def _plain_forget(self: KnownAuctions, auction_id: str) -> OpenAuction | None:
+    info = self.biddable.pop(auction_id, None)  # (the bidder forgot its round just before)
     if info is not None:
-        self._in_order = None
+        self.in_order = None
     return info
 
 
@@ -122,12 +122,12 @@ def _plain_engine() -> Iterator[None]:
         mp.setattr(EmbeddedBus, "_audience", lambda self, msg: list(self._subscribers.items()))
         mp.setattr(EmbeddedBus, "_everyone_now", lambda self: list(self._subscribers.items()))
         mp.setattr(engine.robots.bidder, "refused_all", lambda *args: False)
-        mp.setattr(Bidder, "_unsaid", lambda self, once: {""})  # never "nothing left to say"
-        mp.setattr(Bidder, "_unsaid_in_order", lambda self, once: self.auctions_in_order())
+        mp.setattr(KnownAuctions, "unsaid", lambda self, once: {""})  # never "nothing left to say"
+        mp.setattr(KnownAuctions, "unsaid_in_order", lambda self, once: self.auctions_in_order())
         mp.setattr(Liveness, "silent", _brute_silent)
         mp.setattr(engine.robots.bidder.Bidder, "_note_quiet", lambda self, auctions, policy: None)
-        mp.setattr(Bidder, "note_auction", _plain_note)
-        mp.setattr(Bidder, "forget_auction", _plain_forget)
+        mp.setattr(KnownAuctions, "note_auction", _plain_note)
+        mp.setattr(KnownAuctions, "forget_auction", _plain_forget)
         mp.setattr(Robot, "first_look", lambda self, msg: False)
         mp.setattr(EmbeddedBus, "rounds_on_board", False)
         yield
