@@ -404,7 +404,7 @@ def _house_for(robot: Robot) -> AuctionHouse:
         robot.name,
         robot.ctx,
         kind=AUCTION_KINDS.get(robot.rtype, "operator"),
-        peer_offers=robot.recovery.peer_handles,
+        peer_offers=robot.recovery.peer_duties.peer_handles,
         holders_carry=robot.rtype != "scout",  # a site does not move with its excavator
     )
 

@@ -133,7 +133,7 @@ def _on_announce(robot: HearingRobot, msg: Announce) -> None:
         msg.search_path,
     )
     if recovery.peer_type(msg.sender) == robot.rtype:
-        recovery.peer_open.setdefault(msg.sender, {})[aid] = info
+        recovery.peer_duties.peer_open.setdefault(msg.sender, {})[aid] = info
     # a duplicate auction for a task I am auctioning: the smaller name keeps it
     robot.house.yield_duplicate(aid, task_id, msg.sender)
     if robot.search is not None:  # scouts learn of sites their peers found
@@ -150,11 +150,11 @@ def _on_close(robot: HearingRobot, msg: Close) -> None:
         info = None
     else:
         info = bidder.closed(msg.auction_id)
-    peer = robot.recovery.peer_open.get(msg.sender)
+    peer = robot.recovery.peer_duties.peer_open.get(msg.sender)
     if peer is not None:
         peer.pop(msg.auction_id, None)
         if msg.allocated_to is not None:
-            robot.recovery.note_peer_alloc(
+            robot.recovery.peer_duties.note_peer_alloc(
                 msg.sender,
                 Allocation(
                     msg.auction_id,

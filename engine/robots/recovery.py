@@ -1,7 +1,8 @@
 """The recovery part every robot has: heartbeats, what it knows of its peers (who they are,
-whom it thinks down, what they auction and watch), noticing a silent peer (probes before a
-verdict), adopting a dead peer's auctions and watched tasks, settling false alarms
-(Holding/Revoke), and settling its own duties when it comes back from a failure.
+whom it thinks down, what they auction and watch: the last kept in `engine.robots.peer_duties`),
+noticing a silent peer (probes before a verdict), adopting a dead peer's auctions and watched
+tasks, settling false alarms (Holding/Revoke), and settling its own duties when it comes back
+from a failure.
 
 Watching the winners of its own auctions and offering their tasks again is the auction
 house's (`engine.auction_house`); this part tells the house when a winner is found down.
@@ -15,9 +16,9 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import simpy
 
-from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
-from engine.bidding import OpenAuction
+from engine.auction_rules import AUCTION_KINDS, Duties
 from engine.messages import Heartbeat, Hello, Holding, Leaving, Probe, Revoke, Takeover, TaskDone
+from engine.robots.peer_duties import PeerDuties
 
 if TYPE_CHECKING:
     from engine.auction_house import AuctionHouse
@@ -87,11 +88,10 @@ class Recovery:
         self.ctx = robot.ctx
         self.env = robot.ctx.env
         self._probing: set[str] = set()
-        # Memory that survives a failure: what others were responsible for (for adoption),
-        # whose duties I took over, tasks I finished, and my own duties while I am down.
-        self.peer_open: dict[str, dict[str, OpenAuction]] = {}
-        self.peer_alloc: dict[str, dict[str, Allocation]] = {}
-        self._alloc_peers: dict[str, set[str]] = {}  # task id -> peers whose peer_alloc has it
+        # Memory that survives a failure: what others were responsible for (for adoption,
+        # `PeerDuties`), whose duties I took over, tasks I finished, and my own duties while I
+        # am down.
+        self.peer_duties = PeerDuties(self)
         self.adopted: dict[str, list[str]] = {}  # failed peer -> auction ids I opened for it
         self.adopted_tasks: dict[str, tuple[str, ...]] = {}  # failed peer -> its tasks I hold
         self.adopted_cells: dict[str, tuple[int, ...]] = {}  # failed peer -> its cells I scan
@@ -180,46 +180,6 @@ class Recovery:
             return -math.inf
         return heard + timeout
 
-    def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
-        """A peer of my type allocated a task (its Close): remembered for adopting its watch."""
-        self.peer_alloc.setdefault(peer, {})[alloc.task_id] = alloc
-        self._alloc_peers.setdefault(alloc.task_id, set()).add(peer)
-
-    def forget_peer_allocs(self, peer: str) -> dict[str, Allocation]:
-        allocs = self.peer_alloc.pop(peer, {})
-        for tid in allocs:
-            self._unlist(tid, peer)
-        return allocs
-
-    def end_peer_alloc(self, task_id: str, winner: str) -> None:
-        """`winner` reported the task finished: every peer's allocation of it to `winner` ends
-        (found through the task's index, not by a look at every peer)."""
-        for peer in list(self._alloc_peers.get(task_id, ())):
-            allocs = self.peer_alloc[peer]
-            if allocs[task_id].winner == winner:
-                del allocs[task_id]
-                self._unlist(task_id, peer)
-
-    def _unlist(self, task_id: str, peer: str) -> None:
-        peers = self._alloc_peers[task_id]
-        peers.discard(peer)
-        if not peers:
-            del self._alloc_peers[task_id]
-
-    def peer_handles(self, task_id: str) -> bool:
-        """Does a live peer of my type run an auction for this task? Only what is fresh counts:
-        announced since its last heartbeat, or listed in it (my memory of peers may be old)."""
-        board = self.ctx.liveness
-        for peer, auctions in self.peer_open.items():
-            if not self.peer_alive(peer):
-                continue
-            hb = board.last_heartbeat(self.name, peer)
-            for aid, a in auctions.items():
-                fresh = hb is None or hb.t <= a.opened_at or aid in hb.open_auctions
-                if a.task_id == task_id and fresh:
-                    return True
-        return False
-
     # --- noticing a silent peer -----------------------------------------------------------
     def check_peers(self) -> None:
         robot = self.robot
@@ -302,7 +262,7 @@ class Recovery:
         opened: list[str] = []
         tasks: list[str] = []
         kind = AUCTION_KINDS.get(self.robot.rtype, "operator")
-        for info in self.peer_open.pop(peer, {}).values():
+        for info in self.peer_duties.peer_open.pop(peer, {}).values():
             rec = house.open(
                 info.task_type,
                 info.location,
@@ -313,7 +273,7 @@ class Recovery:
             )
             opened.append(rec.id)
             tasks.append(info.task_id)
-        for tid, alloc in self.forget_peer_allocs(peer).items():
+        for tid, alloc in self.peer_duties.forget_peer_allocs(peer).items():
             tasks.append(tid)
             if alloc.winner in self.down:  # search where its holder was last heard carrying it
                 house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
@@ -350,7 +310,7 @@ class Recovery:
         per task, duplicates between auctioneers go to the smaller name, Holding/Revoke)."""
         yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
         mine = self.dormant.without(self.taken_back)
-        kept = mine.without({t for t in mine.task_ids() if self.peer_handles(t)})
+        kept = mine.without({t for t in mine.task_ids() if self.peer_duties.peer_handles(t)})
         self.dormant = Duties()
         self.rejoining = False
         self.robot.house.resume(kept)
@@ -377,7 +337,7 @@ class Recovery:
     def on_task_done(self, msg: TaskDone) -> None:
         # only the robot a task was allocated to ends that allocation (a duplicate holder's
         # "void" must not end the real holder's watch)
-        self.end_peer_alloc(msg.task_id, msg.sender)
+        self.peer_duties.end_peer_alloc(msg.task_id, msg.sender)
         self.robot.house.task_done(msg)
         self.robot.on_task_done_heard(msg)
 
@@ -420,8 +380,8 @@ class Recovery:
             self._forget_adoption(msg.failed)
             if self.robot.search is not None:
                 self.robot.search.on_adoption_undone(msg.failed)
-        self.peer_open.pop(msg.failed, None)
-        self.forget_peer_allocs(msg.failed)
+        self.peer_duties.peer_open.pop(msg.failed, None)
+        self.peer_duties.forget_peer_allocs(msg.failed)
         if self.robot.search is not None:
             self.robot.search.on_takeover_heard(msg)
 

@@ -122,21 +122,21 @@ class Transports:
         transports do not count (they are for what I dig), nor is old news about peers
         believed: their auctions must be fresh, their winners must still list the task."""
         robot = self.robot
-        house, recovery = robot.house, robot.recovery
+        house, peers = robot.house, robot.recovery.peer_duties
         pile = {*robot.ahead, robot.waiting_for}
         board = self.ctx.liveness
         known = [(r.task_type, r.location) for r in house.open_records() if r.task_id not in pile]
         known += [(a.task_type, a.location) for a in house.watches() if a.task_id not in pile]
-        for allocs in recovery.peer_alloc.values():
+        for allocs in peers.peer_alloc.values():
             for a in allocs.values():
                 hb = board.last_heartbeat(self.name, a.winner)
                 if hb is not None and a.task_id in hb.tasks:
                     known.append((a.task_type, a.location))
         known += [
             (a.task_type, a.location)
-            for peer in recovery.peer_open
-            for a in recovery.peer_open[peer].values()
-            if recovery.peer_handles(a.task_id)
+            for peer in peers.peer_open
+            for a in peers.peer_open[peer].values()
+            if peers.peer_handles(a.task_id)
         ]
         return any(t == "transport" and dist(loc, p) <= NEAR for t, loc in known)
 

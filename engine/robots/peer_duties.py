@@ -1,0 +1,82 @@
+"""What a robot has heard of the duties of its peers of its type (`PeerDuties`): the auctions
+each runs and the tasks each allocated and watches, and whether a live peer already offers a
+task.
+
+It exists apart from recovery (`engine.robots.recovery`), which acts on it (adopting a silent
+peer's duties, settling its own after a failure), because it is a record with an index of its
+own (a task's allocations are found through the task, not by a look at every peer), kept as
+the bus tells of auctions, closes and finished tasks, and across the robot's failures.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol
+
+from engine.auction_rules import Allocation
+from engine.bidding import OpenAuction
+
+if TYPE_CHECKING:
+    from engine.context import MissionContext
+
+
+class PeerLiveness(Protocol):
+    """What the record reads of its robot's recovery part (`Recovery`): who it is, the
+    heartbeats it heard, and whether it thinks a peer alive."""
+
+    name: str
+    ctx: MissionContext
+
+    def peer_alive(self, name: str) -> bool: ...
+
+
+class PeerDuties:
+    """The duties of a robot's peers of its type, as far as it heard: their open auctions
+    (`peer_open`, from their announcements) and the tasks they allocated (`peer_alloc`, from
+    their Closes, until the winner reports the task finished)."""
+
+    def __init__(self, recovery: PeerLiveness) -> None:
+        self.recovery = recovery
+        self.peer_open: dict[str, dict[str, OpenAuction]] = {}
+        self.peer_alloc: dict[str, dict[str, Allocation]] = {}
+        self._alloc_peers: dict[str, set[str]] = {}  # task id -> peers whose peer_alloc has it
+
+    def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
+        """A peer of my type allocated a task (its Close): remembered for adopting its watch."""
+        self.peer_alloc.setdefault(peer, {})[alloc.task_id] = alloc
+        self._alloc_peers.setdefault(alloc.task_id, set()).add(peer)
+
+    def forget_peer_allocs(self, peer: str) -> dict[str, Allocation]:
+        allocs = self.peer_alloc.pop(peer, {})
+        for tid in allocs:
+            self._unlist(tid, peer)
+        return allocs
+
+    def end_peer_alloc(self, task_id: str, winner: str) -> None:
+        """`winner` reported the task finished: every peer's allocation of it to `winner` ends
+        (found through the task's index, not by a look at every peer)."""
+        for peer in list(self._alloc_peers.get(task_id, ())):
+            allocs = self.peer_alloc[peer]
+            if allocs[task_id].winner == winner:
+                del allocs[task_id]
+                self._unlist(task_id, peer)
+
+    def _unlist(self, task_id: str, peer: str) -> None:
+        peers = self._alloc_peers[task_id]
+        peers.discard(peer)
+        if not peers:
+            del self._alloc_peers[task_id]
+
+    def peer_handles(self, task_id: str) -> bool:
+        """Does a live peer of my type run an auction for this task? Only what is fresh counts:
+        announced since its last heartbeat, or listed in it (my memory of peers may be old)."""
+        recovery = self.recovery
+        board = recovery.ctx.liveness
+        for peer, auctions in self.peer_open.items():
+            if not recovery.peer_alive(peer):
+                continue
+            hb = board.last_heartbeat(recovery.name, peer)
+            for aid, a in auctions.items():
+                fresh = hb is None or hb.t <= a.opened_at or aid in hb.open_auctions
+                if a.task_id == task_id and fresh:
+                    return True
+        return False
