@@ -19,6 +19,7 @@ seed and the actions taken are printed (pytest shows them with a failure).
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import random
@@ -234,20 +235,35 @@ class OneHolder:
             # a holder its peers declared failed during this life of its process
             wrongly = [n for n in names if suspected.get(n, -math.inf) >= lives[n]]
             if not wrongly:
-                self._fail(f"{task} held by {names}, none of them ever declared failed", names)
+                self._fail(
+                    f"{task} held by {names}, none of them ever declared failed", names, task
+                )
             self.tolerated[key] = now - first
         self.since = {k: v for k, v in self.since.items() if k in current}
 
-    def _fail(self, what: str, names: list[str]) -> None:
+    def _fail(self, what: str, names: list[str], task: str) -> None:
+        """Fail with what the holders said of failures and tasks, and every record of the
+        task itself (its auctions, awards, Holding answers, revocations): enough to tell a
+        race between an award and a holder's answer from a holder that never answered."""
         rec = self.m.fleet.intake
+        kinds = ("failure_detected", "takeover", "task_started", "task_ended")
         with rec.lock:
             said = [
                 (round(float(e["t"]), 1), e.get("by"), e["event"], e["data"])
                 for e in rec.events
-                if e["data"].get("robot") in names or e.get("by") in names
-                if e["event"] in ("failure_detected", "takeover", "task_started", "task_ended")
+                if (
+                    (e["data"].get("robot") in names or e.get("by") in names)
+                    and e["event"] in kinds
+                )
+                or task in json.dumps(e["data"], default=str)
             ]
-        detail = "\n".join(map(str, said[-40:]))
+            beats = {n: rec.heartbeats.get(n) for n in names}
+            auctions = [a for a in rec.auctions.values() if a.get("task_id") == task]
+        detail = "\n".join(map(str, said[-60:]))
+        detail += "\nits auctions: " + json.dumps(auctions, default=str)[:4000]
+        detail += "\nlatest heartbeats: " + str(
+            {n: None if hb is None else (hb.t, hb.state, hb.tasks) for n, hb in beats.items()}
+        )
         pytest.fail(f"seed {self.seed}: at t={self.m.now:.1f}: {what}\n{detail}")
 
 
