@@ -242,9 +242,9 @@ class OneHolder:
         self.since = {k: v for k, v in self.since.items() if k in current}
 
     def _fail(self, what: str, names: list[str], task: str) -> None:
-        """Fail with what the holders said of failures and tasks, and every record of the
-        task itself (its auctions, awards, Holding answers, revocations): enough to tell a
-        race between an award and a holder's answer from a holder that never answered."""
+        """Fail with what the holders said of failures and tasks, every event that names the
+        task (a revocation among them), its auctions with their awards, and the holders'
+        latest heartbeats: what a late answer of the first holder would show."""
         rec = self.m.fleet.intake
         kinds = ("failure_detected", "takeover", "task_started", "task_ended")
         with rec.lock:
