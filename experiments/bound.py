@@ -84,6 +84,7 @@ def found_bounds(w: BoundWorld) -> np.ndarray:
     if not w.scout_routes:
         return np.asarray(reach_any / w.v_scout)
     best = np.full(len(xy), np.inf)
+    craters = np.asarray(w.craters, dtype=float).reshape(-1, 3)  # once per world
     for route in w.scout_routes:
         if not route:  # a scout without cells: allow it anything
             best = np.minimum(best, reach_any)
@@ -98,7 +99,7 @@ def found_bounds(w: BoundWorld) -> np.ndarray:
         first = max(0.0, math.hypot(a[0, 0] - px, a[0, 1] - py) - w.start_spread)
         leg = np.hypot(np.diff(a[:, 0]), np.diff(a[:, 1]))
         prefix = first + np.concatenate([[0.0], np.cumsum(leg)])[:-1]
-        straight = _legs_clear(w, a)
+        straight = _legs_clear(a, craters, w.clearance)
         for lo in range(0, len(xy), 64):  # sites in chunks: memory stays small when scaled
             chunk = xy[lo : lo + 64]
             t = _leg_bounds(a, leg, prefix, straight, chunk, r)
@@ -140,15 +141,15 @@ def _leg_bounds(
     return np.asarray(np.minimum(per_leg.min(axis=1), at_end))
 
 
-def _legs_clear(w: BoundWorld, a: np.ndarray) -> np.ndarray:
-    """Per leg of route `a`: clear of every crater inflated by the planner's clearance (with a
-    safety margin). Legs in blocks against every crater at once: one leg at a time in Python
-    took minutes per run at scale 100 (a hundred spirals, 600 craters)."""
+def _legs_clear(a: np.ndarray, craters: np.ndarray, clearance: float) -> np.ndarray:
+    """Per leg of route `a`: clear of every crater (rows x, y, r) inflated by the planner's
+    clearance (with a safety margin). Legs in blocks against every crater at once: one leg at
+    a time in Python took minutes per run at scale 100 (a hundred spirals, 600 craters)."""
     out = np.ones(max(0, len(a) - 1), dtype=bool)
-    c = np.asarray(w.craters, dtype=float).reshape(-1, 3)
+    c = craters
     if len(c) == 0:
         return out
-    cx, cy, limit = c[None, :, 0], c[None, :, 1], c[None, :, 2] + w.clearance
+    cx, cy, limit = c[None, :, 0], c[None, :, 1], c[None, :, 2] + clearance
     for lo in range(0, len(out), _LEG_BLOCK):
         q = a[lo + 1 : lo + _LEG_BLOCK + 1]
         p = a[lo : lo + len(q)]
@@ -166,13 +167,6 @@ def _legs_clear(w: BoundWorld, a: np.ndarray) -> np.ndarray:
 def _disc_clear(w: BoundWorld, rho: float) -> bool:
     px, py = w.plant
     return all(math.hypot(cx - px, cy - py) - cr - w.clearance > rho for cx, cy, cr in w.craters)
-
-
-def _seg_point(p: np.ndarray, q: np.ndarray, cx: float, cy: float) -> float:
-    dx, dy = q[0] - p[0], q[1] - p[1]
-    seg2 = dx * dx + dy * dy
-    u = 0.0 if seg2 == 0 else min(1.0, max(0.0, ((cx - p[0]) * dx + (cy - p[1]) * dy) / seg2))
-    return math.hypot(p[0] + u * dx - cx, p[1] + u * dy - cy)
 
 
 def mst_length(points: Sequence[Point]) -> float:

@@ -141,7 +141,7 @@ def test_legs_are_tested_against_every_crater_as_one_at_a_time_would() -> None:
         return True
 
     want = [plain(route[i], route[i + 1]) for i in range(len(route) - 1)]
-    got = legs_clear(w, route).tolist()
+    got = legs_clear(route, np.asarray(craters, dtype=float), w.clearance).tolist()
     assert got == want
     assert 0 < sum(want) < len(want)  # some legs clear, some blocked
-    assert legs_clear(BASE, route).all()  # no craters: every leg clear
+    assert legs_clear(route, np.zeros((0, 3)), BASE.clearance).all()  # no craters: all clear
