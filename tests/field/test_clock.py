@@ -2,7 +2,7 @@
 pause and re-pace, never backwards, whose states travel as JSON and are adopted only when
 newer; hostile or malformed states change nothing. And the world service's side: no change
 to the world while paused, reads still answered, and the state handed out in `spawn` and
-`status` (tests/field/test_fleet_clock.py runs it with real agent processes)."""
+`status` (tests/field/test_fleet.py runs it with real agent processes)."""
 
 from __future__ import annotations
 
