@@ -25,6 +25,8 @@ import os
 import random
 import time
 from collections import defaultdict
+from threading import Lock
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
@@ -430,9 +432,6 @@ class _FakeMission:
     """What `OneHolder` reads of a field mission: the intake's records and the processes."""
 
     def __init__(self) -> None:
-        from threading import Lock
-        from types import SimpleNamespace
-
         self.now = 0.0
         self.intake = SimpleNamespace(lock=Lock(), heartbeats={}, events=[], auctions={})
         procs = {n: SimpleNamespace(alive=True, started_at=0.0) for n in ("ex-1", "ex-3")}
@@ -443,8 +442,6 @@ class _FakeMission:
         self.intake.events.append({"t": t, "by": by, "event": event, "data": data})
 
     def beats(self, t: float, tasks: dict[str, tuple[str, ...]]) -> None:
-        from types import SimpleNamespace
-
         self.now = t
         for name, held in tasks.items():
             self.intake.heartbeats[name] = SimpleNamespace(t=t, state="digging", tasks=held)
