@@ -146,10 +146,10 @@ def _legs_clear(a: np.ndarray, craters: np.ndarray, clearance: float) -> np.ndar
     clearance (with a safety margin). Legs in blocks against every crater at once: one leg at
     a time in Python took minutes per run at scale 100 (a hundred spirals, 600 craters)."""
     out = np.ones(max(0, len(a) - 1), dtype=bool)
-    c = craters
-    if len(c) == 0:
+    if len(craters) == 0:
         return out
-    cx, cy, limit = c[None, :, 0], c[None, :, 1], c[None, :, 2] + clearance
+    cx, cy = craters[None, :, 0], craters[None, :, 1]
+    limit = craters[None, :, 2] + clearance
     for lo in range(0, len(out), _LEG_BLOCK):
         q = a[lo + 1 : lo + _LEG_BLOCK + 1]
         p = a[lo : lo + len(q)]

@@ -215,6 +215,12 @@ class Bidder(Pricing):
         self.reserved = None
         self._stir()
 
+    def revoked(self, task_id: str) -> None:
+        """A Revoke of `task_id` reached me before the Close allocating it (a bus that
+        reorders: the Close was sent first): that Close must not start it."""
+        if self.reserved is not None and self.reserved.task_id == task_id:
+            self.let_go()
+
     # --- room for more ------------------------------------------------------------------
     def busy(self) -> bool:
         robot = self.robot

@@ -349,12 +349,8 @@ class Recovery:
         robot = self.robot
         if msg.robot != self.name:
             return
-        bidder = robot.bidder
-        reserved = None if bidder is None else bidder.reserved
-        if bidder is not None and reserved is not None and reserved.task_id == msg.task_id:
-            # revoked before its Close reached me (a bus that reorders: the Close was sent
-            # first): the Close must not start it
-            bidder.let_go()
+        if robot.bidder is not None:
+            robot.bidder.revoked(msg.task_id)
         robot.queue = deque(a for a in robot.queue if a.task_id != msg.task_id)
         robot.tasks_changed()
         cur = robot.current

@@ -217,8 +217,9 @@ class OneHolder:
 
     def __init__(self, m: FieldMission, seed: int, settle_s: float) -> None:
         self.m, self.seed, self.settle_s = m, seed, settle_s
-        self.opened: dict[str, tuple[str, float]] = {}  # auction id -> (task, when opened)
-        self.started: dict[tuple[str, str], tuple[str, float]] = {}  # (robot, task) -> same
+        self.opened: dict[str, float] = {}  # auction id -> when it opened
+        # (robot, task) -> (the auction it won the task in, when it started it)
+        self.started: dict[tuple[str, str], tuple[str, float]] = {}
         self.since: dict[tuple[str, tuple[str, ...]], float] = {}
         self.tolerated: dict[tuple[str, tuple[str, ...]], float] = {}
         self.ended: dict[tuple[str, str], float] = {}  # (robot, task) -> when it last ended it
@@ -237,8 +238,7 @@ class OneHolder:
                 key = (str(e.get("by")), str(e["data"].get("task_id")))
                 ended[key] = max(ended.get(key, -math.inf), float(e["t"]))
             elif e.get("event") == "auction_opened":
-                aid = str(e["data"].get("auction_id"))
-                self.opened[aid] = (str(e["data"].get("task_id")), float(e["t"]))
+                self.opened[str(e["data"].get("auction_id"))] = float(e["t"])
             elif e.get("event") == "task_started":
                 key = (str(e.get("by")), str(e["data"].get("task_id")))
                 self.started[key] = (str(e["data"].get("auction_id")), float(e["t"]))
@@ -294,8 +294,8 @@ class OneHolder:
         opened = self.opened.get(aid)
         if opened is None:
             return seen
-        held_before = [n for n, (_, t) in known if n != latest_name and t <= opened[1]]
-        return opened[1] if held_before else None
+        held_before = [n for n, (_, t) in known if n != latest_name and t <= opened]
+        return opened if held_before else None
 
     def _fail(self, what: str, names: list[str], task: str) -> None:
         """Fail with what the holders said of failures and tasks, every event that names the
