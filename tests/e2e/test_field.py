@@ -2,8 +2,8 @@
 one: twelve robots on the map moving, counters rising, an operator SIGKILL of a hauler that
 holds a transport shown as a failed robot, its transport re-auctioned to another, a new
 excavator process joining and winning excavations, a pause (its time standing, no delivery)
-and a resume, the mission run to completion at 50×; and all of it in the database's tables:
-every mineral delivered (docs/field.md).
+and a resume, the mission (the compact one, tests/field/compact.py) run to completion at
+50×; and all of it in the database's tables: every mineral delivered (docs/field.md).
 
 Its live view tells the truth as a simulated one's does (docs/dashboard.md): the timeline is
 on and says a field run plays back from its stored poses (tests/e2e/test_field_playback.py
@@ -25,6 +25,7 @@ from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import ConsoleLog, Server
 from tests.e2e.test_dashboard import WORK, Start, free_point, open_live, wait_for
+from tests.field.compact import COMPACT, compact_scenario
 from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import STALL_S
@@ -41,7 +42,9 @@ def test_field_mission_on_the_dashboard(
 def _field_mission_on_the_dashboard(
     page: Page, console: ConsoleLog, start_mission: Start, api: httpx.Client, server: Server
 ) -> None:
-    mission = start_mission(policy="nearest", seed=0, speed=paced(50.0), field=True)
+    mission = start_mission(
+        policy="nearest", seed=0, speed=paced(50.0), field=True, scenario=COMPACT
+    )
     mid = mission["id"]
     open_live(page, mid)
     expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")
@@ -54,7 +57,7 @@ def _field_mission_on_the_dashboard(
     expect(page.locator("#tl-play")).to_be_enabled()
     expect(page.locator("#tl-source")).to_have_text("field: stored poses")
     # a new excavator joins (a new agent process) mid-mission and must win work: while the
-    # scouts still find sites (the last ones by ~1300 s; joining later, it raced the last
+    # scouts still find sites (the last ones by ~700 s; joining later, it raced the last
     # excavation auctions and could find none left)
     wait_for(page, "window.__regolith.lastCounters.sites_found >= 2", STALL_S, WORK)
     res = api.post(f"/missions/{mid}/robots", json={"type": "excavator"})
@@ -169,13 +172,15 @@ def _field_mission_on_the_dashboard(
     detail = api.get(f"/missions/{mid}").json()
     assert detail["status"] == "completed", detail
     m = detail["metrics"]
-    assert m["minerals_delivered"] == m["minerals_total"] == 64, m
-    assert m["sites_found"] == m["sites_total"] == 10, m
+    compact = compact_scenario()
+    assert m["minerals_delivered"] == m["minerals_total"] == compact.minerals, m
+    assert m["sites_found"] == m["sites_total"] == compact.sites, m
     wait_for(page, "window.__regolith.final", timeout=30)
     # the counters are the final ones (the stored metrics)
     counters = page.evaluate("window.__regolith.lastCounters")
-    assert counters["minerals_delivered"] == m["minerals_delivered"] == 64, (counters, m)
-    expect(page.locator("[data-counter='minerals']")).to_have_text("64/64")
+    assert counters["minerals_delivered"] == m["minerals_delivered"], (counters, m)
+    everything = f"{compact.minerals}/{compact.minerals}"
+    expect(page.locator("[data-counter='minerals']")).to_have_text(everything)
     # only the SIGKILLed hauler is shown failed: none because its process ended with the mission
     failed = page.locator('#robot-table tr[data-robot][data-state="failed"]')
     expect(failed).to_have_count(1)
@@ -207,7 +212,7 @@ def _field_mission_on_the_dashboard(
         res = api.get(f"/missions/{mid}/events", params={"kind": kind, "limit": 500})
         return list(res.json()["items"])
 
-    assert len(events("delivered")) == 64  # each delivery recorded once
+    assert len(events("delivered")) == compact.minerals  # each delivery recorded once
     (inj,) = events("task_injected")
     assert inj["data"]["auction_id"] == injected and inj["data"]["task_type"] == "transport"
     assert [a["id"] for a in items if a["kind"] == "operator"] == [injected]

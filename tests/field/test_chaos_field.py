@@ -1,5 +1,6 @@
 """Field chaos: a field mission (mission control and its agent processes, as the server runs
-it: `FieldMission`) under random operator actions at random times — SIGKILLs, rejoins, new
+it: `FieldMission`; the compact mission of tests/field/compact.py, the reference team on half
+the ground) under random operator actions at random times — SIGKILLs, rejoins, new
 robots, policy switches (centralized ones refused), operator tasks (some in craters or outside
 the area, refused), pauses (with other actions taken while paused) and resumes, new speeds
 ("max" and below 1× refused) — then every killed robot started again and the mission run to
@@ -33,9 +34,10 @@ import pytest
 
 from engine.errors import CommandRejected
 from engine.policies import POLICIES
-from engine.scenario import ROBOT_TYPES, reference_scenario
+from engine.scenario import ROBOT_TYPES
 from field.control import FieldMission
 from field.world_handle import running
+from tests.field.compact import compact_scenario
 from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import Progress
@@ -52,12 +54,20 @@ time): at 100x on two cores the agents' own CPU use starves them on top of the i
 stalls, and the mission crawls (after 4,500 s of mission time, 1-3 deliveries per 1,500 s,
 every query still answered). It ran at 25x (~205 s) until the agents' clock loop stopped
 spinning (`field.clock.advance_to`); at 50x it passed 3 of 3 in 112-160 s."""
-CHAOS_UNTIL_S = 1200.0  # mission time of random actions; then every killed robot restarts
+CHAOS_UNTIL_S = 600.0
+"""Mission time of random actions (about when the compact mission's last site is found: the
+remaining half of it is dug and hauled after); then every killed robot restarts."""
+FIRST_ACTION_S = (50.0, 150.0)
+ACTION_EVERY_S = (10.0, 75.0)
+"""When the first random action comes, and how far apart the others are (mission time): ~10
+actions, a fifth of them two at once, in the compact mission's 600 s (tests/field/compact.py;
+on the reference mission, twice as long, these were twice as far apart)."""
 #: What a field mission's progress is (tests/progress.py: a loaded machine slows it, so the
 #: test waits while any of these moves, not for a fixed time; ~35 s when the machine is idle).
 GIVE_UP_S = 12_000.0
-"""Mission time past which a run is stuck, whatever still moves (a finished chaos run ends
-by ~5,000 s; a stalled one crawled for 10 wall minutes of CI before its progress check)."""
+"""Mission time past which a run is stuck, whatever still moves (a finished chaos run of the
+reference mission ended by ~5,000 s; a stalled one crawled for 10 wall minutes of CI before
+its progress check)."""
 WORK = ("delivered", "sites_found", "scanned", "ground", "aboard")
 
 
@@ -177,7 +187,7 @@ def settle_s(stall: str | None, speed: float) -> float:
     """Mission time the protocol may take to settle a task auctioned while held (`OneHolder`):
     the failure timeout (an answer later than that is a failure by the protocol's own
     measure), plus, with injected stalls, one stall for each of the three messages."""
-    timeout = reference_scenario().protocol.failure_timeout_s
+    timeout = compact_scenario().protocol.failure_timeout_s
     if stall is None:
         return timeout
     return timeout + 3 * float(stall.split("@")[0]) * speed
@@ -377,13 +387,13 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
         if stall is not None and speed < SPEED:  # the same starvation in mission time
             for_s, every_s = (float(x) * SPEED / speed for x in stall.split("@"))
             stall = f"{for_s:g}@{every_s:g}"
-        m = FieldMission(reference_scenario(), seed, rng.choice(decentralized), speed, stall)
+        m = FieldMission(compact_scenario(), seed, rng.choice(decentralized), speed, stall)
         chaos = Chaos(m, rng, seed)
         holders = OneHolder(m, seed, settle_s(stall, speed))
         chaos.note(f"policy {m.policy}")
         try:
             watch = Progress(f"seed {seed}: the field mission to finish")
-            next_at = rng.uniform(100, 300)
+            next_at = rng.uniform(*FIRST_ACTION_S)
             settled = False
             shown = time.monotonic()
             while not m.done:
@@ -409,7 +419,7 @@ def test_field_mission_under_random_operator_actions(seed: int, stall: str | Non
                     chaos.step()
                     if rng.random() < 0.2:
                         chaos.step()  # two at once
-                    next_at = m.now + rng.uniform(20, 150)
+                    next_at = m.now + rng.uniform(*ACTION_EVERY_S)
                 time.sleep(0.1)
             where = _conserved(m, seed)
             assert m.status == "completed", f"seed {seed}: {m.status} {where}"

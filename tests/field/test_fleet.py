@@ -1,6 +1,7 @@
 """A field mission end to end: mission control and twelve agent processes on 127.0.0.1, the
-reference mission at 100× to completion; one hauler SIGKILLed while it carries a mineral to
-the plant, a new excavator process started mid-mission, a scout killed and started again;
+compact mission (tests/field/compact.py: the reference team on half the ground) at 100× to
+completion; one hauler SIGKILLed while it carries a mineral to the plant, a new excavator
+process started mid-mission, a scout killed and started again;
 then, with the hauler still dead, the mission clock (docs/field.md, "The mission clock").
 Checked on what mission control recorded: the mineral fell where the hauler was last heard of,
 was carried by another, every mineral is accounted for, and the scout's second life numbered
@@ -10,7 +11,7 @@ The clock: mission control pauses the mission and no robot acts — no delivery,
 the world's time standing — for a stretch of wall time in which several deliveries would have
 been made; after the resume the mission goes on. Then the speed is halved and every live
 agent's heartbeats advance at the new rate, in step with the world's clock. (One mission for
-both: each is a whole reference mission of CI time, and together they also check that a
+both: each is a whole field mission of CI time, and together they also check that a
 pause and a new pace reach the agents of a fleet that lost one and gained two.)
 
 Waits are on progress (tests/progress.py), never on a fixed deadline: the stretches watched
@@ -25,8 +26,8 @@ from typing import Any
 
 import pytest
 
-from engine.scenario import reference_scenario
 from field.fleet import Fleet
+from tests.field.compact import compact_scenario
 from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import Progress
@@ -51,7 +52,7 @@ def fleet() -> Iterator[Fleet]:
 
 
 def _fleet() -> Iterator[Fleet]:
-    f = Fleet(reference_scenario(), 0, "nearest", paced(SPEED))
+    f = Fleet(compact_scenario(), 0, "nearest", paced(SPEED))
     try:
         yield f
     finally:
@@ -185,7 +186,7 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator_and_keeps_its_cloc
                 fleet.kill("hauler-2")  # SIGKILL: nothing said, peers find out by its silence
                 killed = held
                 assert fleet.world.status()["ground"] >= 1  # its mineral fell where it was
-        if added is None and now >= 300:  # sites are still being found until ~1300 s
+        if added is None and now >= 150:  # sites are still being found until ~700 s
             added = fleet.add("excavator")
         if reborn is None and now >= 150 and _auctioned(fleet, "scout-1"):
             # its first life auctioned a site: its second counts its auctions from 1 again
@@ -200,8 +201,9 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator_and_keeps_its_cloc
         time.sleep(0.02)
 
     status = fleet.world.status()
-    assert status["delivered"] == status["minerals_total"] == 64
-    assert status["sites_found"] == status["sites_total"] == 10
+    compact = compact_scenario()
+    assert status["delivered"] == status["minerals_total"] == compact.minerals
+    assert status["sites_found"] == status["sites_total"] == compact.sites
     assert status["ground"] == 0 and status["sites_remaining"] == 0 and status["aboard"] == 0
     assert killed is not None and added == "excavator-5" and clocked
     assert fleet.world.status()["clock"]["version"] == 4  # pause, resume, two speeds
@@ -215,7 +217,7 @@ def test_field_mission_survives_a_sigkill_and_a_new_excavator_and_keeps_its_cloc
         d for k, d in events if k == "mineral_recovered" and d["mineral"] == dropped[0]["mineral"]
     ]
     assert len(picked) == 1 and picked[0]["robot"] != "hauler-2", picked
-    assert sum(k == "delivered" for k, _ in events) == 64
+    assert sum(k == "delivered" for k, _ in events) == compact.minerals
     auctions = list(fleet.intake.auctions.values())
     # the killed hauler's task was auctioned again, and someone else carried it
     again = [a for a in auctions if a["reauction_of"] == killed["id"]]

@@ -3,10 +3,11 @@
 credential and one holding a real credential of another robot (`hauler-7`, issued as for a
 robot on another machine), and try every class of forgery (tests/field/hostile_peer.py).
 
-Every forgery is refused and counted; the field mission completes 64/64 with the records of
-an unattacked run (every auction held by a robot of the mission, every delivery once, the
-policy unchanged); the simulated mission's frames and stored events go on; /api/health
-answers throughout. Then the server-wide process budget, against the same kind of server.
+Every forgery is refused and counted; the field mission (the compact one of
+tests/field/compact.py) completes with every mineral delivered and the records of an
+unattacked run (every auction held by a robot of the mission, every delivery once, the policy
+unchanged); the simulated mission's frames and stored events go on; /api/health answers
+throughout. Then the server-wide process budget, against the same kind of server.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import httpx
 import pytest
 
 from tests.api.conftest import LiveServer, all_pages, make_settings
+from tests.field.compact import COMPACT, compact_scenario
 from tests.field.pace import paced
 from tests.field.serial import one_field_mission_at_a_time
 from tests.progress import REQUEST_S, wait_progress
@@ -103,7 +105,13 @@ def _attacked(live: LiveServer, tmp_path: Path) -> None:
         other = api.post("/api/missions", json={"seed": 5, "speed": 5}).json()["id"]
         res = api.post(
             "/api/missions",
-            json={"policy": "nearest", "seed": 0, "speed": paced(50.0), "field": True},
+            json={
+                "policy": "nearest",
+                "seed": 0,
+                "speed": paced(50.0),
+                "field": True,
+                "scenario": COMPACT,
+            },
         )
         assert res.status_code == 201, res.text
         mid = res.json()["id"]
@@ -130,7 +138,9 @@ def _attacked(live: LiveServer, tmp_path: Path) -> None:
         detail = api.get(f"/api/missions/{mid}").json()
         metrics = detail["metrics"]
         assert row["status"] == "completed", row
-        assert (metrics["minerals_delivered"], metrics["sites_found"]) == (64, 10), metrics
+        compact = compact_scenario()
+        found = (metrics["minerals_delivered"], metrics["sites_found"])
+        assert found == (compact.minerals, compact.sites), metrics
         dropped = metrics["rejections"]
         reasons = dropped["by_reason"]
         for reason in ("unsigned", "stranger", "impersonation", "oversized", "replayed"):
@@ -149,7 +159,7 @@ def _attacked(live: LiveServer, tmp_path: Path) -> None:
         assert all(a["allocated_to"] in members for a in auctions if a["allocated_to"] is not None)
         assert detail["policies"] == ["nearest"] and detail["policy"] == "nearest"
         events = _events(api, mid)
-        assert sum(e["kind"] == "delivered" for e in events) == 64
+        assert sum(e["kind"] == "delivered" for e in events) == compact.minerals
         assert all(isinstance(e["t"], int | float) for e in events)
 
         # the simulated mission beside it went on all along
