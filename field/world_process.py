@@ -133,6 +133,17 @@ class WorldProcess:
             "supervisor",
         )
 
+    def start_team(self) -> None:
+        """Every agent of the team, before any request is answered: mission control's first
+        view then holds the whole team (its process budget counts them), and an `add` or a
+        `spawn` asked meanwhile waits instead of racing the roster. (It did on a loaded
+        machine: an `add` answered before the haulers started was named `hauler-1`, the budget
+        counted the few agents already up, and the team's own `hauler-1` started again.)"""
+        with self._lock:
+            if self.settings.paused:  # before any agent starts: each is handed it at its spawn
+                self.fleet.set_clock(paused=True)
+            self.fleet.up(operator=True)
+
     def _on_request(self, query: Any) -> None:
         link, key = self.fleet.link, supervisor_key(self.settings.mission)
         got = link.take_control_query(query, key, "the world's controls")
@@ -206,9 +217,7 @@ class WorldProcess:
         }
 
     def run(self) -> None:
-        if self.settings.paused:  # before any agent starts: each is handed it at its spawn
-            self.fleet.set_clock(paused=True)
-        self.fleet.up(operator=True)
+        self.start_team()
         while not self.stopped.wait(0.5):
             quiet = time.monotonic() - self.heard
             finished = self.fleet.world.terrain.finished.triggered
