@@ -110,10 +110,7 @@ def _on_announce(robot: HearingRobot, msg: Announce) -> None:
             TaskDone(sender=robot.name, auction_id=aid, task_id=task_id, outcome="done")
         )
         return
-    cur = robot.current
-    if (cur is not None and cur.task_id == task_id) or (
-        robot.queue and any(a.task_id == task_id for a in robot.queue)
-    ):
+    if _holds(robot, task_id):
         rounds.keep(aid)
         robot.ctx.bus.publish(Holding(sender=robot.name, task_id=task_id, auction_id=aid))
         return
@@ -143,7 +140,20 @@ def _on_announce(robot: HearingRobot, msg: Announce) -> None:
         bidder.consider_bids()
 
 
+def _holds(robot: HearingRobot, task_id: str) -> bool:
+    cur = robot.current
+    return (cur is not None and cur.task_id == task_id) or (
+        bool(robot.queue) and any(a.task_id == task_id for a in robot.queue)
+    )
+
+
 def _on_close(robot: HearingRobot, msg: Close) -> None:
+    if msg.allocated_to not in (None, robot.name) and _holds(robot, msg.task_id):
+        # my task given to another: my Holding to its announcement was lost (or came after
+        # the award). Said again, the auctioneer revokes the other (`holder_says`).
+        robot.ctx.bus.publish(
+            Holding(sender=robot.name, task_id=msg.task_id, auction_id=msg.auction_id)
+        )
     bidder = robot.bidder
     if bidder is None:
         robot.rounds.forget(msg.auction_id)

@@ -1,10 +1,13 @@
 """Faults: robots fail, messages get lost, robots join — and no mineral or site is lost."""
 
+from collections.abc import Callable
+
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from engine import Mission, parse_scenario, reference_scenario
+from engine.messages import Holding, Message
 from tests.engine.factories import FAILURES, events_of, play_actions
 from tests.engine.invariants import InvariantWatch
 
@@ -259,3 +262,36 @@ def test_a_task_auctioned_while_held_is_settled_within_three_hops(
     assert m.status == "completed"
     assert metrics["minerals_delivered"] == metrics["minerals_total"]
     assert longest <= 3 * (latency + jitter) + 1e-6, f"a task held twice for {longest:.2f} s"
+
+
+def _losing_first(m: Mission, kind: type[Message], key: Callable[[Message], object]) -> set[object]:
+    """The bus of `m` loses the first message of `kind` for each `key` (every copy of it: as
+    if every receiver missed it); the keys whose first message was lost."""
+    bus, lost = m.ctx.bus, set()
+    publish = bus.publish
+
+    def losing(msg: Message) -> None:
+        if isinstance(msg, kind) and (k := key(msg)) not in lost:
+            lost.add(k)
+            return
+        publish(msg)
+
+    bus.publish = losing  # type: ignore[method-assign]
+    return lost
+
+
+@pytest.mark.parametrize(("seed", "policy"), [(0, "lookahead"), (1, "coalition"), (2, "nearest")])
+def test_a_holding_lost_on_an_operators_task_is_said_again_on_its_close(
+    seed: int, policy: str
+) -> None:
+    """The holder's `Holding` to the operator's announcement is lost, so the auction awards the
+    task to a second excavator. The holder hears the `Close` that gives its task away and says
+    `Holding` again; the operator revokes the other. (Before, both worked the site until it was
+    dug out: 38-154 s on a lossy bus.)"""
+    m = Mission(lossy(loss=0.0, latency=0.1, jitter=1.2), seed, policy, "exact")
+    lost = _losing_first(m, Holding, lambda msg: msg.task_id)  # type: ignore[attr-defined]
+    longest, injected = _inject_on_held_sites(m)
+    assert m.status == "completed" and injected >= 20
+    assert lost  # the holders' first word was lost
+    assert any(e["by"] == "operator" for e in events_of(m, "task_revoked"))
+    assert longest <= SETTLE_S, f"a task held twice for {longest:.1f} s"
