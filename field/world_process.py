@@ -123,6 +123,8 @@ class WorldProcess:
             journal=settings.journal,
             moon=True,
         )
+        if settings.paused:  # before any request can hold the lock, and any agent starts
+            self.fleet.set_clock(paused=True)
         self.stopped = threading.Event()
         self.heard = time.monotonic()  # mission control's last word
         self._lock = threading.Lock()  # one request at a time changes the fleet
@@ -140,8 +142,6 @@ class WorldProcess:
         machine: an `add` answered before the haulers started was named `hauler-1`, the budget
         counted the few agents already up, and the team's own `hauler-1` started again.)"""
         with self._lock:
-            if self.settings.paused:  # before any agent starts: each is handed it at its spawn
-                self.fleet.set_clock(paused=True)
             self.fleet.up(operator=True)
 
     def _on_request(self, query: Any) -> None:
