@@ -130,7 +130,7 @@ def _on_announce(robot: HearingRobot, msg: Announce) -> None:
         msg.search_path,
     )
     if recovery.peer_type(msg.sender) == robot.rtype:
-        recovery.peer_duties.peer_open.setdefault(msg.sender, {})[aid] = info
+        recovery.peer_duties.note_peer_open(msg.sender, info)
     # a duplicate auction for a task I am auctioning: the smaller name keeps it
     robot.house.yield_duplicate(aid, task_id, msg.sender)
     if robot.search is not None:  # scouts learn of sites their peers found

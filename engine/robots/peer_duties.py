@@ -40,6 +40,16 @@ class PeerDuties:
         self.peer_alloc: dict[str, dict[str, Allocation]] = {}
         self._alloc_peers: dict[str, set[str]] = {}  # task id -> peers whose peer_alloc has it
 
+    def note_peer_open(self, peer: str, info: OpenAuction) -> None:
+        """A peer of my type announced an auction. An auctioneer runs one auction per task, so
+        an earlier one of the same task is over, whether or not I heard its Close (a lossy
+        bus): adopting the peer must offer the task as it offered it last, not as it once did
+        (a lost mineral searched for at its pick-up point instead of along its route)."""
+        auctions = self.peer_open.setdefault(peer, {})
+        for aid in [aid for aid, a in auctions.items() if a.task_id == info.task_id]:
+            del auctions[aid]
+        auctions[info.auction_id] = info
+
     def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
         """A peer of my type allocated a task (its Close): remembered for adopting its watch."""
         self.peer_alloc.setdefault(peer, {})[alloc.task_id] = alloc

@@ -7,7 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from engine import Mission, parse_scenario, reference_scenario
-from engine.messages import Holding, Message
+from engine.messages import Announce, Holding, Message
 from tests.engine.factories import FAILURES, events_of, play_actions
 from tests.engine.invariants import InvariantWatch
 
@@ -295,3 +295,35 @@ def test_a_holding_lost_on_an_operators_task_is_said_again_on_its_close(
     assert lost  # the holders' first word was lost
     assert any(e["by"] == "operator" for e in events_of(m, "task_revoked"))
     assert longest <= SETTLE_S, f"a task held twice for {longest:.1f} s"
+
+
+def test_an_adopter_offers_a_peers_task_as_the_peer_offered_it_last() -> None:
+    """An auctioneer runs one auction per task, so a peer's second auction of a task ends its
+    first, whether its Close was heard or not (a lossy bus): adopting the silent peer offers
+    the task from the second (a lost mineral searched for along the route the peer last
+    gave, not at its pick-up point)."""
+    m = Mission(reference_scenario(), 0, "fcfs", planner="straight")
+    m.advance(1.0)
+    me = m.ctx.robots["excavator-1"]
+
+    def announced(n: int, where: tuple[float, float], search: tuple[tuple[float, float], ...]):
+        return Announce(
+            sender="excavator-2",
+            auction_id=f"excavator-2/9{n}",
+            auctioneer="excavator-2",
+            task_type="transport",
+            location=where,
+            task_id="excavator-2#m9",
+            opened_at=float(n),
+            search_path=search,
+        )
+
+    me.on_message(announced(1, (20.0, 20.0), ()))
+    me.on_message(announced(2, (24.0, 22.0), ((24.0, 22.0), (50.0, 50.0))))  # 1's Close lost
+    me.recovery.adopt("excavator-2")
+    [rec] = [r for r in me.house.open_records() if r.task_id == "excavator-2#m9"]
+    assert (rec.location, rec.search_path, rec.reauction_of) == (
+        (24.0, 22.0),
+        ((24.0, 22.0), (50.0, 50.0)),
+        "excavator-2/92",
+    )

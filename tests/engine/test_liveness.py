@@ -56,19 +56,40 @@ def test_a_scout_back_before_anyone_noticed_resumes_its_auctions() -> None:
     assert all(m.ctx.robots["scout-2"].house.has_open(a.id) for a in stranded)
 
 
-def test_a_recorded_live_chaos_session_completes() -> None:
-    """A live session that stalled in CI, replayed on the engine (its recorded actions are
-    its whole input): a hauler failed with a mineral and came back before its watcher noticed;
-    the re-auction must search along the route it last reported while carrying it."""
-    case = json.loads((Path(__file__).parent / "cases" / "live_chaos_stall.json").read_text())
+def _replay(name: str) -> Mission:
+    """A recorded stalled session, replayed on the engine (its recorded actions are its whole
+    input), run to its end."""
+    case = json.loads((Path(__file__).parent / "cases" / name).read_text())
     scenario = parse_scenario({**reference_scenario().model_dump(), **case["scenario"]})
-    m = Mission(scenario, case["seed"], case["policy"])
-    watch = InvariantWatch(m)
+    m = Mission(scenario, case["seed"], case["policy"], planner=case.get("planner", "ompl"))
     for action in case["actions"]:
         m.apply(action)
+    return m
+
+
+def test_a_recorded_live_chaos_session_completes() -> None:
+    """A live session that stalled in CI: a hauler failed with a mineral and came back before
+    its watcher noticed; the re-auction must search along the route it last reported while
+    carrying it."""
+    m = _replay("live_chaos_stall.json")
+    watch = InvariantWatch(m)
     m.run()
     watch.final()
     assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
+
+
+def test_an_adopter_that_missed_closes_offers_a_lost_mineral_as_last_offered() -> None:
+    """Random actions on a lossy bus: an excavator failed while re-offering the transport of a
+    mineral its hauler had dropped on the way. Its adopter had missed the Closes of the two
+    earlier auctions of that transport and re-opened the oldest, which searched only the
+    pick-up point: the mineral stayed on the ground and the mission stalled at 63 of 64."""
+    m = _replay("lossy_chaos_adoption.json")
+    m.run()
+    assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
+    opened = [e.data for e in m.ctx.observer.log.events if e.kind == "auction_opened"]
+    adopted = [d for d in opened if d["auctioneer"] == "excavator-1" and "#" in d["task_id"]]
+    lost = [d for d in adopted if d["task_id"] == "excavator-2#m13"]
+    assert lost and lost[0]["reauction_of"] == "excavator-2/13", lost
 
 
 # --- randomized operator actions over every policy -------------------------------------------
