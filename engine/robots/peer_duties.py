@@ -17,6 +17,8 @@ from engine.bidding import OpenAuction
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
+    from engine.liveness import Liveness
+    from engine.messages import Heartbeat
 
 
 class PeerLiveness(Protocol):
@@ -77,16 +79,51 @@ class PeerDuties:
             del self._alloc_peers[task_id]
 
     def peer_handles(self, task_id: str) -> bool:
-        """Does a live peer of my type run an auction for this task? Only what is fresh counts:
-        announced since its last heartbeat, or listed in it (my memory of peers may be old)."""
+        """Does a live peer of my type run an auction for this task? Only what is fresh counts
+        (`_fresh`: my memory of peers may be old)."""
         recovery = self.recovery
         board = recovery.ctx.liveness
         for peer, auctions in self.peer_open.items():
             if not recovery.peer_alive(peer):
                 continue
             hb = board.last_heartbeat(recovery.name, peer)
-            for aid, a in auctions.items():
-                fresh = hb is None or hb.t <= a.opened_at or aid in hb.open_auctions
-                if a.task_id == task_id and fresh:
+            for a in auctions.values():
+                if a.task_id == task_id and _fresh(a, hb):
                     return True
         return False
+
+    def closed_unheard(self, peer: str) -> dict[str, Allocation]:
+        """The auctions of `peer` I think open whose Close I missed (its heartbeat no longer
+        lists them), taken out of `peer_open`, as allocations to the robot whose heartbeat lists
+        the task (the one heard from last); an auction nobody says it holds stays open to me."""
+        recovery = self.recovery
+        board = recovery.ctx.liveness
+        auctions = self.peer_open.get(peer, {})
+        hb = board.last_heartbeat(recovery.name, peer)
+        found: dict[str, Allocation] = {}
+        for aid, a in list(auctions.items()):
+            if _fresh(a, hb):
+                continue
+            holder = _holder(board, recovery.name, a.task_id)
+            if holder is not None:
+                del auctions[aid]
+                found[a.task_id] = Allocation(
+                    aid, a.task_id, a.task_type, a.location, holder, float(recovery.ctx.env.now)
+                )
+        return found
+
+
+def _fresh(a: OpenAuction, hb: Heartbeat | None) -> bool:
+    """Is a peer's auction open as far as I know: announced since its last heartbeat I heard,
+    or listed in it? (Else it closed and I missed its Close.)"""
+    return hb is None or hb.t <= a.opened_at or a.auction_id in hb.open_auctions
+
+
+def _holder(board: Liveness, me: str, task_id: str) -> str | None:
+    """The robot whose last heartbeat I heard lists the task, the latest heard if several."""
+    best: tuple[float, str] | None = None
+    for name in board.names:
+        hb = board.last_heartbeat(me, name)
+        if hb is not None and task_id in hb.tasks and (best is None or hb.t > best[0]):
+            best = (hb.t, name)
+    return None if best is None else best[1]

@@ -262,6 +262,9 @@ class Recovery:
         opened: list[str] = []
         tasks: list[str] = []
         kind = AUCTION_KINDS.get(self.robot.rtype, "operator")
+        # an auction whose Close I missed is not open: its task is watched, or offered again
+        # from where its holder was last heard (not from the auction's own place)
+        closed = self.peer_duties.closed_unheard(peer)
         for info in self.peer_duties.peer_open.pop(peer, {}).values():
             rec = house.open(
                 info.task_type,
@@ -273,7 +276,7 @@ class Recovery:
             )
             opened.append(rec.id)
             tasks.append(info.task_id)
-        for tid, alloc in self.peer_duties.forget_peer_allocs(peer).items():
+        for tid, alloc in {**self.peer_duties.forget_peer_allocs(peer), **closed}.items():
             tasks.append(tid)
             if alloc.winner in self.down:  # search where its holder was last heard carrying it
                 house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))

@@ -7,6 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from engine import Mission, parse_scenario, reference_scenario
+from engine.bidding import OpenAuction
 from engine.messages import Announce, Holding, Message
 from tests.engine.factories import FAILURES, events_of, play_actions
 from tests.engine.invariants import InvariantWatch
@@ -327,3 +328,28 @@ def test_an_adopter_offers_a_peers_task_as_the_peer_offered_it_last() -> None:
         ((24.0, 22.0), (50.0, 50.0)),
         "excavator-2/92",
     )
+
+
+def test_an_adopter_that_missed_a_close_watches_the_task_its_holder_lists() -> None:
+    """A peer's auction whose Close I missed (the peer's heartbeat no longer lists it) is not
+    open: adopting the peer, I watch its task as allocated to the robot whose heartbeat lists
+    it, instead of auctioning it again from where it was first offered (a hauler already
+    carrying the mineral would fail unwatched, and the new winner find nothing there)."""
+    m = Mission(reference_scenario(), 0, "fcfs", planner="straight")
+    me, hauler, task = m.ctx.robots["excavator-1"], None, None
+    while hauler is None:
+        m.advance(m.now + 5.0)
+        for r in m.ctx.robots.values():
+            if r.rtype == "hauler" and r.current and r.current.task_id.startswith("excavator-2#"):
+                hauler, task = r.name, r.current.task_id
+    m.advance(m.now + 2 * m.ctx.scenario.protocol.heartbeat_s)  # heartbeats say so since
+    rec = next(a for a in m.auctions if a.task_id == task and a.allocated_to == hauler)
+    duties = me.recovery.peer_duties
+    duties.end_peer_alloc(task, hauler)  # as if its Close had been lost to me
+    duties.note_peer_open(
+        "excavator-2",
+        OpenAuction(rec.id, "excavator-2", "transport", rec.location, task, rec.opened_at, ()),
+    )
+    me.recovery.adopt("excavator-2")
+    assert not any(r.task_id == task for r in me.house.open_records())
+    assert [a.winner for a in me.house.watches() if a.task_id == task] == [hauler]

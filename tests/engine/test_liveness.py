@@ -92,6 +92,20 @@ def test_an_adopter_that_missed_closes_offers_a_lost_mineral_as_last_offered() -
     assert lost and lost[0]["reauction_of"] == "excavator-2/13", lost
 
 
+def test_an_adopter_that_missed_a_close_searches_for_the_failed_holders_mineral() -> None:
+    """Random actions on a lossy, late bus: a hauler failed carrying a mineral just before its
+    excavator left. The adopter had missed that transport's Close: it auctioned the task
+    again from the pick-up point, the winner found nothing there, and the mineral stayed on
+    the ground (63 of 64). Now it watches the hauler its heartbeat names, and offers the task
+    again from where that hauler was last heard once it is found down."""
+    m = _replay("lossy_chaos_unheard_close.json")
+    m.run()
+    assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
+    opened = [e.data for e in m.ctx.observer.log.events if e.kind == "auction_opened"]
+    again = [d for d in opened if d["task_id"] == "excavator-3#m18" and d["reauction_of"]]
+    assert again and again[0]["location"] != [6.327, 98.87], again
+
+
 # --- randomized operator actions over every policy -------------------------------------------
 # The generator draws each action from the robots' states at its time (experiments/chaos.py):
 # disable graceful/abrupt, enable, add, inject, switch policy, 15% of them at the same instant
