@@ -67,7 +67,9 @@ class OracleAllocator:
         excluded: Set[str],
     ) -> list[str]:
         tasks = [
-            a for a in ctx.observer.auctions if a.status == "open" and a.task_type == rec.task_type
+            a
+            for a in ctx.observer.auctions
+            if a.status == "open" and a.task_type == rec.task_type and _running(ctx, a)
         ]
         if rec not in tasks:
             return []
@@ -77,6 +79,14 @@ class OracleAllocator:
             if a is not rec and a.awards and a.awards[-1].outcome == "pending"
         }
         return assign_greedily(ctx, rec, tasks, promised, excluded)
+
+
+def _running(ctx: GlobalView, rec: AuctionRecord) -> bool:
+    """Is the auction run now? A record stays open when its auctioneer fails until an
+    auction naming it takes it over: no robot can be sent to it meanwhile. (The operator's
+    console is no robot of the view, and never fails: its records are true.)"""
+    auctioneer = ctx.robots.get(rec.auctioneer)
+    return auctioneer is None or auctioneer.house.has_open(rec.id)
 
 
 def assign_greedily(

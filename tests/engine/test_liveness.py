@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from engine import Mission, parse_scenario, reference_scenario, run_mission
+from engine import Mission, load_scenario, parse_scenario, reference_scenario, run_mission
 from engine.policies import POLICIES
 from experiments.chaos import chaos_mission
 from tests.engine.factories import events_of, small_scenario
@@ -60,7 +60,10 @@ def _replay(name: str) -> Mission:
     """A recorded stalled session, replayed on the engine (its recorded actions are its whole
     input), run to its end."""
     case = json.loads((Path(__file__).parent / "cases" / name).read_text())
-    scenario = parse_scenario({**reference_scenario().model_dump(), **case["scenario"]})
+    base = reference_scenario()
+    if "scenario_file" in case:  # one of scenarios/
+        base = load_scenario(Path(__file__).parents[2] / "scenarios" / case["scenario_file"])
+    scenario = parse_scenario({**base.model_dump(), **case["scenario"]})
     m = Mission(scenario, case["seed"], case["policy"], planner=case.get("planner", "ompl"))
     for action in case["actions"]:
         m.apply(action)
@@ -104,6 +107,16 @@ def test_an_adopter_that_missed_a_close_searches_for_the_failed_holders_mineral(
     opened = [e.data for e in m.ctx.observer.log.events if e.kind == "auction_opened"]
     again = [d for d in opened if d["task_id"] == "excavator-3#m18" and d["reauction_of"]]
     assert again and again[0]["location"] != [6.327, 98.87], again
+
+
+def test_the_central_allocator_counts_only_auctions_that_are_run() -> None:
+    """Random actions on the realistic scenario, under the centralized baseline: auctions a
+    failed auctioneer gave up stayed marked open, the central allocator assigned every free
+    excavator to them and none to the one auction really run, and the mission stalled with
+    two minerals at a site."""
+    m = _replay("realistic_chaos_zombie_auctions.json")
+    m.run()
+    assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
 
 
 # --- randomized operator actions over every policy -------------------------------------------
