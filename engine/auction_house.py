@@ -51,6 +51,7 @@ class HeartbeatBoard(Protocol):
     def last_heartbeat_about(
         self, receiver: str, sender: str, task_id: str
     ) -> Heartbeat | None: ...
+    def holder_of(self, receiver: str, task_id: str, but: str | None = None) -> str | None: ...
 
 
 class AuctionPorts(Protocol):
@@ -313,16 +314,16 @@ class AuctionHouse:
     # --- watching winners ----------------------------------------------------------------
     def check_winners(self, grace: float) -> None:
         """A winner that neither lists a task in its heartbeat nor reports it done has dropped
-        it: offered again. One that reports it done ends the watch (its TaskDone was lost)."""
+        it: offered again. One that reports it done ends the watch (its TaskDone was lost).
+        One that lists it holds it, whatever its list of finished tasks says: a site's task
+        can come back to a robot that once found it worked by another ("void")."""
         board = self.ports.liveness
         for tid, alloc in list(self._watches.items()):
             hb = board.last_heartbeat(self.owner, alloc.winner)
-            if hb is None or hb.t < alloc.since + grace:
+            if hb is None or hb.t < alloc.since + grace or tid in hb.tasks:
                 continue
-            if tid in hb.done:
-                del self._watches[tid]
-            elif tid not in hb.tasks:
-                del self._watches[tid]
+            del self._watches[tid]
+            if tid not in hb.done:
                 self.reoffer(alloc, hb)
 
     def winner_down(self, peer: str) -> None:
@@ -336,7 +337,12 @@ class AuctionHouse:
     def task_done(self, msg: TaskDone) -> None:
         """A TaskDone: only the robot a task was allocated to ends its watch (a duplicate
         holder's "void" must not end the real holder's); a released task is offered again; a
-        task done needs no auction any more."""
+        task done needs no auction any more.
+
+        A "void" from my winner while another robot's heartbeat lists the task means that
+        robot works it (a site found worked: its holder had been thought down, out of radio
+        reach say, and the task given again): I watch that robot instead, so its letting go
+        later is seen in its heartbeats even if its TaskDone does not reach me."""
         alloc = self._watches.get(msg.task_id)
         if alloc is not None and alloc.winner == msg.sender:
             del self._watches[msg.task_id]
@@ -344,6 +350,11 @@ class AuctionHouse:
             alloc = None
         if alloc is not None and msg.outcome == "released":
             self.reoffer(alloc, None)
+        elif alloc is not None and msg.outcome == "void":
+            holder = self.ports.liveness.holder_of(self.owner, msg.task_id, but=msg.sender)
+            if holder is not None:
+                alloc.winner, alloc.since = holder, float(self.ports.env.now)
+                self._watches[msg.task_id] = alloc
         elif msg.outcome == "done":
             self.cancel_task(msg.task_id)
 

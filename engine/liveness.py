@@ -184,6 +184,16 @@ class Liveness:
                 return self._heartbeat(sender, serial, kept)
         return None
 
+    def holder_of(self, receiver: str, task_id: str, but: str | None = None) -> str | None:
+        """The robot (other than `but`) whose last heartbeat `receiver` heard lists the task
+        (the latest heard, if several): who holds it, as far as `receiver` knows."""
+        best: tuple[float, str] | None = None
+        for sender in self.names:
+            hb = None if sender == but else self.last_heartbeat(receiver, sender)
+            if hb is not None and task_id in hb.tasks and (best is None or hb.t > best[0]):
+                best = (hb.t, sender)
+        return None if best is None else best[1]
+
     def _heartbeat(self, sender: str, serial: int, kept: Kept) -> Heartbeat:
         """The heartbeat sent: the very model while it is among the newest, else made again."""
         for n, hb in self._whole[sender]:

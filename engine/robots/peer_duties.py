@@ -17,7 +17,6 @@ from engine.bidding import OpenAuction
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
-    from engine.liveness import Liveness
     from engine.messages import Heartbeat
 
 
@@ -104,11 +103,12 @@ class PeerDuties:
         for aid, a in list(auctions.items()):
             if _fresh(a, hb):
                 continue
-            holder = _holder(board, recovery.name, a.task_id)
+            holder = board.holder_of(recovery.name, a.task_id)
             if holder is not None:
                 del auctions[aid]
+                now = float(recovery.ctx.env.now)
                 found[a.task_id] = Allocation(
-                    aid, a.task_id, a.task_type, a.location, holder, float(recovery.ctx.env.now)
+                    aid, a.task_id, a.task_type, a.location, holder, now, a.search_path
                 )
         return found
 
@@ -117,13 +117,3 @@ def _fresh(a: OpenAuction, hb: Heartbeat | None) -> bool:
     """Is a peer's auction open as far as I know: announced since its last heartbeat I heard,
     or listed in it? (Else it closed and I missed its Close.)"""
     return hb is None or hb.t <= a.opened_at or a.auction_id in hb.open_auctions
-
-
-def _holder(board: Liveness, me: str, task_id: str) -> str | None:
-    """The robot whose last heartbeat I heard lists the task, the latest heard if several."""
-    best: tuple[float, str] | None = None
-    for name in board.names:
-        hb = board.last_heartbeat(me, name)
-        if hb is not None and task_id in hb.tasks and (best is None or hb.t > best[0]):
-            best = (hb.t, name)
-    return None if best is None else best[1]

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from engine import Mission, parse_scenario, reference_scenario
 from engine.bidding import OpenAuction
-from engine.messages import Announce, Holding, Message
+from engine.messages import Announce, Holding, Message, TaskDone
 from tests.engine.factories import FAILURES, events_of, play_actions
 from tests.engine.invariants import InvariantWatch
 
@@ -353,3 +353,44 @@ def test_an_adopter_that_missed_a_close_watches_the_task_its_holder_lists() -> N
     me.recovery.adopt("excavator-2")
     assert not any(r.task_id == task for r in me.house.open_records())
     assert [a.winner for a in me.house.watches() if a.task_id == task] == [hauler]
+
+
+def _a_dig_watched(m: Mission):
+    """Advance until a scout watches an excavation its winner is working on: (scout, alloc)."""
+    while True:
+        m.advance(m.now + 5.0)
+        for scout in (r for r in m.ctx.robots.values() if r.rtype == "scout"):
+            for alloc in scout.house.watches():
+                cur = m.ctx.robots[alloc.winner].current
+                if alloc.task_type == "excavate" and cur and cur.task_id == alloc.task_id:
+                    return scout, alloc
+
+
+def test_a_winner_that_lists_its_task_holds_it_whatever_it_once_finished() -> None:
+    """A site's task can come back to an excavator that once said "void" for it (it found the
+    site worked by another): its heartbeat then lists the task among those it holds and among
+    those it finished. The watcher must keep watching it, or its later release goes unseen."""
+    m = Mission(reference_scenario(), 0, "fcfs", planner="straight")
+    scout, alloc = _a_dig_watched(m)
+    m.ctx.robots[alloc.winner].recovery.done_ids.append(alloc.task_id)  # an earlier void
+    m.advance(m.now + 6 * m.ctx.scenario.protocol.heartbeat_s)  # past the grace, and checked
+    assert [a.winner for a in scout.house.watches() if a.task_id == alloc.task_id] == [alloc.winner]
+
+
+def test_a_void_while_another_robot_holds_the_task_moves_the_watch_to_it() -> None:
+    """My winner says "void" (the site is worked) while another robot's heartbeat lists the
+    task: that robot works it (it had been thought down, say, and came back), so I watch it."""
+    m = Mission(reference_scenario(), 0, "fcfs", planner="straight")
+    scout, alloc = _a_dig_watched(m)
+    winner = m.ctx.robots[alloc.winner]
+    other = next(
+        r for r in m.ctx.robots.values() if r.rtype == "excavator" and r.name != winner.name
+    )
+    assert winner.current is not None
+    other.queue.append(winner.current)  # it lists the task from its next heartbeat
+    m.advance(m.now + m.ctx.scenario.protocol.heartbeat_s)
+    void = TaskDone(
+        sender=winner.name, auction_id=alloc.auction_id, task_id=alloc.task_id, outcome="void"
+    )
+    scout.house.task_done(void)
+    assert [a.winner for a in scout.house.watches() if a.task_id == alloc.task_id] == [other.name]

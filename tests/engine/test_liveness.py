@@ -119,6 +119,17 @@ def test_the_central_allocator_counts_only_auctions_that_are_run() -> None:
     assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
 
 
+def test_a_site_found_worked_and_then_released_out_of_reach_is_offered_again() -> None:
+    """Random actions on the realistic scenario: an excavator out of radio reach was thought
+    down and its site given to another, which found it worked and said "void". The first then
+    released it out of reach (its TaskDone heard by nobody that watched it), and when the
+    second took the site again its list of finished tasks (the void) was read as done. Four
+    minerals stayed at the site."""
+    m = _replay("realistic_chaos_void_on_worked_site.json")
+    m.run()
+    assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
+
+
 # --- randomized operator actions over every policy -------------------------------------------
 # The generator draws each action from the robots' states at its time (experiments/chaos.py):
 # disable graceful/abrupt, enable, add, inject, switch policy, 15% of them at the same instant
