@@ -440,6 +440,13 @@ class AuctionHouse:
         self._watches.clear()
         return duties
 
+    def give_up(self, records: list[AuctionRecord]) -> None:
+        """An earlier life's auctions that a peer took over: superseded (their records would
+        otherwise stay open, read by whoever counts the open auctions)."""
+        for rec in records:
+            if rec.status == "open":
+                self.ports.close_auction(rec, "superseded", None)
+
     def resume(self, duties: Duties) -> None:
         """Take up an earlier life's duties: its auctions again (as re-auctions), its watches."""
         for rec in duties.auctions:

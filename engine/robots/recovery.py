@@ -312,11 +312,15 @@ class Recovery:
         is held twice for a while, which the protocol resolves (an auctioneer runs one auction
         per task, duplicates between auctioneers go to the smaller name, Holding/Revoke)."""
         yield self.env.timeout(1.5 * self.ctx.scenario.protocol.heartbeat_s)
-        mine = self.dormant.without(self.taken_back)
+        dormant = self.dormant
+        mine = dormant.without(self.taken_back)
         kept = mine.without({t for t in mine.task_ids() if self.peer_duties.peer_handles(t)})
         self.dormant = Duties()
         self.rejoining = False
         self.robot.house.resume(kept)
+        # the auctions a peer runs now in my place are over for me: their records say so
+        resumed = {r.id for r in kept.auctions}
+        self.robot.house.give_up([r for r in dormant.auctions if r.id not in resumed])
         self.ctx.observer.emit(
             "duties_settled",
             robot=self.name,

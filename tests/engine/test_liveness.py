@@ -56,9 +56,9 @@ def test_a_scout_back_before_anyone_noticed_resumes_its_auctions() -> None:
     assert all(m.ctx.robots["scout-2"].house.has_open(a.id) for a in stranded)
 
 
-def _replay(name: str) -> Mission:
+def _replay(name: str, leave_out: str | None = None) -> Mission:
     """A recorded stalled session, replayed on the engine (its recorded actions are its whole
-    input), run to its end."""
+    input; `leave_out`: but its switches to that policy)."""
     case = json.loads((Path(__file__).parent / "cases" / name).read_text())
     base = reference_scenario()
     if "scenario_file" in case:  # one of scenarios/
@@ -66,7 +66,8 @@ def _replay(name: str) -> Mission:
     scenario = parse_scenario({**base.model_dump(), **case["scenario"]})
     m = Mission(scenario, case["seed"], case["policy"], planner=case.get("planner", "ompl"))
     for action in case["actions"]:
-        m.apply(action)
+        if action["kind"] != "set_policy" or action["args"]["policy"] != leave_out:
+            m.apply(action)
     return m
 
 
@@ -117,6 +118,22 @@ def test_the_central_allocator_counts_only_auctions_that_are_run() -> None:
     m = _replay("realistic_chaos_zombie_auctions.json")
     m.run()
     assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
+
+
+def test_auctions_given_up_on_a_return_are_recorded_superseded() -> None:
+    """The same session without the switch to the centralized baseline: the scout back from
+    its failure gives up an auction its peer runs in its place (`recovery.rejoin`); its
+    record must not stay open, run by nobody (the operator's view and the stall report read
+    the records)."""
+    m = _replay("realistic_chaos_zombie_auctions.json", leave_out="central-greedy")
+    m.advance(2700.0)  # scout-2 came back at 2,500 s and settled its duties 15 s later
+    robots = m.ctx.robots
+    run_by_nobody = [
+        a.id
+        for a in m.auctions
+        if a.status == "open" and not robots[a.auctioneer].house.has_open(a.id)
+    ]
+    assert run_by_nobody == []
 
 
 def test_a_site_found_worked_and_then_released_out_of_reach_is_offered_again() -> None:
