@@ -2,13 +2,17 @@
 (the target is none), and how long finishing takes once every robot is back.
 
     .venv/bin/python bench/chaos_bench.py --seeds 200 --actions 14 --window 2500
+    .venv/bin/python bench/chaos_bench.py --seeds 100 --planner straight --loss 0.2 --latency 0.1
 
 Every registered policy runs every seed: a fault-free mission, then the same seed under
 `--actions` random operator actions (disable graceful/abrupt, enable, add, inject, switch
 policy; two at one instant now and then) over the first `--window` simulated seconds, then
 every robot enabled (experiments/chaos.py). Runs on all cores through a process pool, with
-the real OMPL planner unless `--planner exact` or `--planner straight`. docs/faults.md
-records the figures.
+the real OMPL planner unless `--planner exact` or `--planner straight`. `--loss` and
+`--latency` put both missions on an unreliable bus (per-receiver loss; latency and jitter
+both `--latency` seconds): the faults of the bus and the operator's at once; `--scenario`
+runs another scenario (the realism options' `scenarios/lunar-realistic.toml`, say).
+docs/faults.md records the figures.
 """
 
 from __future__ import annotations
@@ -21,13 +25,14 @@ from typing import Any
 
 import numpy as np
 
+from engine import Scenario
 
-def one(args: tuple[int, str, int, float, str]) -> dict[str, Any]:
-    from engine import reference_scenario, run_mission
+
+def one(args: tuple[int, str, int, float, str, Scenario]) -> dict[str, Any]:
+    from engine import run_mission
     from experiments.chaos import chaos_mission
 
-    seed, policy, actions, window, planner = args
-    scenario = reference_scenario()
+    seed, policy, actions, window, planner, scenario = args
     base = run_mission(scenario, seed, policy, planner=planner)  # type: ignore[arg-type]
     run = chaos_mission(scenario, seed, policy, actions=actions, window_s=window, planner=planner)
     after = None if run.makespan_s is None else run.makespan_s - run.restored_at
@@ -43,7 +48,19 @@ def one(args: tuple[int, str, int, float, str]) -> dict[str, Any]:
     }
 
 
+def scenario_of(o: argparse.Namespace) -> Scenario:
+    """The scenario file's (the reference without one), on the bus the options ask for."""
+    from engine import load_scenario, parse_scenario, reference_scenario
+
+    scenario = reference_scenario() if o.scenario is None else load_scenario(o.scenario)
+    if o.loss or o.latency:
+        bus = {"loss": o.loss, "latency_s": o.latency, "jitter_s": o.latency}
+        scenario = parse_scenario({**scenario.model_dump(), "bus": bus})
+    return scenario
+
+
 def main() -> int:
+    from engine import ScenarioError
     from engine.policies import POLICIES
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -53,9 +70,16 @@ def main() -> int:
     ap.add_argument("--window", type=float, default=2500.0)
     ap.add_argument("--planner", choices=["ompl", "exact", "straight"], default="ompl")
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--scenario", help="a .toml or .json scenario (default: the reference)")
+    ap.add_argument("--loss", type=float, default=0.0, help="per-receiver loss probability")
+    ap.add_argument("--latency", type=float, default=0.0, help="bus latency and jitter (s)")
     o = ap.parse_args()
+    try:
+        scenario = scenario_of(o)
+    except ScenarioError as exc:
+        ap.error(str(exc))
     jobs = [
-        (s, p, o.actions, o.window, o.planner)
+        (s, p, o.actions, o.window, o.planner, scenario)
         for s in range(o.first_seed, o.first_seed + o.seeds)
         for p in sorted(POLICIES)
     ]
@@ -66,7 +90,8 @@ def main() -> int:
     stuck = [r for r in rows if not r["finished"]]
     print(
         f"{len(rows)} missions ({o.seeds} seeds x {len(POLICIES)} policies), "
-        f"{o.actions} actions over {o.window:g} s, planner {o.planner}: {wall:.0f} s wall"
+        f"{o.actions} actions over {o.window:g} s, planner {o.planner}, "
+        f"scenario {scenario.name}, bus loss {o.loss:g}, latency {o.latency:g} s: {wall:.0f} s wall"
     )
     print(f"stuck (not completed with every mineral delivered): {len(stuck)}")
     for r in stuck:

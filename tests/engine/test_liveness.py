@@ -183,6 +183,38 @@ def test_random_operator_actions_then_full_restore_finish(seed: int, policy: str
     assert run.makespan_s - run.restored_at <= AFTER_RESTORE_BOUND * baseline, run.actions
 
 
+# The same on an unreliable bus: the operator's faults and the bus's at once. A lossy bus
+# lets a task be held twice for a while (a Holding or a Revoke lost: docs/faults.md), so the
+# watch here is the one that must never break: every mineral is somewhere, at every event.
+# bench/chaos_bench.py --loss 0.2 --latency 0.1 runs the larger sample (docs/faults.md).
+LOSSY_BUS = {"loss": 0.2, "latency_s": 0.1, "jitter_s": 0.1}
+LOSSY_CASES = [(seed, policy) for seed in range(5) for policy in sorted(POLICIES)]
+
+
+@pytest.mark.parametrize(("seed", "policy"), LOSSY_CASES)
+def test_random_operator_actions_on_a_lossy_bus_then_full_restore_finish(
+    seed: int, policy: str
+) -> None:
+    scenario = parse_scenario({**reference_scenario().model_dump(), "bus": LOSSY_BUS})
+
+    def conserving(m: Mission) -> None:
+        total = m.ctx.terrain.minerals_total
+
+        def check(_event: Any) -> None:
+            where = m.ctx.minerals_in()
+            assert sum(where.values()) == total, f"minerals not conserved: {where}"
+
+        m.subscribe(check)
+
+    run = chaos_mission(
+        scenario, seed, policy, actions=14, window_s=2500.0, planner="straight", watch=conserving
+    )
+    assert run.finished, (run.status, run.delivered, run.actions)
+    assert run.makespan_s is not None
+    baseline = run_mission(scenario, seed, policy, planner="straight")["makespan_s"]
+    assert run.makespan_s - run.restored_at <= AFTER_RESTORE_BOUND * baseline, run.actions
+
+
 def test_a_randomized_history_replays_to_the_same_run() -> None:
     """The recorded actions are the mission's whole input: replaying them gives the same log."""
     run = chaos_mission(reference_scenario(), 7, "lookahead", actions=14, window_s=2500.0)
