@@ -111,7 +111,7 @@ class MissionContext:
         self.energy: EnergyModel | None = None
         self.radio: RadioRange | None = None
 
-    # --- what an auctioneer needs (engine.auction_house.AuctionPorts) ----------------------
+    # --- what an auctioneer needs (engine.auction_ports.AuctionPorts) ----------------------
     @property
     def protocol(self) -> ProtocolSettings:
         return self.scenario.protocol

@@ -1,7 +1,7 @@
 """The researcher's record of one run: the event log, the auction records and the counters.
 
 Bookkeeping only: no robot decision reads it. The auctioneers write their records through it
-(by way of the mission context, `engine.auction_house.AuctionPorts`), the field reports what
+(by way of the mission context, `engine.auction_ports.AuctionPorts`), the field reports what
 happens on the ground to it, and it notes when the mission last moved forward, for the
 stall watch.
 """

@@ -88,10 +88,7 @@ def only_notes(robot: HearingRobot, msg: Announce) -> str | None:
     task_id = msg.task_id
     if task_id in robot.recovery.completed:
         return None  # I say it is done
-    cur = robot.current
-    if (cur is not None and cur.task_id == task_id) or (
-        robot.queue and any(a.task_id == task_id for a in robot.queue)
-    ):
+    if _holds(robot, task_id):
         return None  # I say I hold it
     bidder = robot.bidder
     if bidder is not None and aid in bidder.biddable and not bidder.stays_quiet():
