@@ -102,6 +102,11 @@ class AuctionHouse:
         """Was this task allocated here, its winner not yet done with it?"""
         return task_id in self._watches
 
+    def winner_of(self, task_id: str) -> str | None:
+        """The robot watched for this task, if it was allocated here."""
+        alloc = self._watches.get(task_id)
+        return None if alloc is None else alloc.winner
+
     def watches(self) -> Iterator[Allocation]:
         return iter(list(self._watches.values()))
 

@@ -214,6 +214,8 @@ class Excavator(Robot):
             self._arrival = None
             if arrival.triggered:
                 hauler = str(arrival.value)
+                if self.house.winner_of(task_id) not in (None, hauler):
+                    continue  # my partner came as the auction closed: its winner is on its way
                 self.house.cancel_task(task_id)
                 yield from self.transfer(hauler, site)
         self.waiting_for = None

@@ -138,6 +138,42 @@ def test_the_excavator_answers_arrivals_and_its_partner_coming_and_going():
         m.close()
 
 
+def test_a_partner_arriving_as_the_auction_closes_leaves_the_mineral_to_its_winner():
+    """Field mode's race (chaos seed 202): the partner comes while a transport auction waits
+    for its winner's Ack, and the Ack closes the auction before the excavator acts on the
+    arrival. The mineral is the winner's: handed to the partner, two haulers held one task."""
+    m = Mission(small_scenario(), 1, "coalition")
+    given: list[tuple[str, str, str]] = []  # (excavator, hauler, task) of every hand-over
+    raced: list[tuple[str, str, str, int]] = []  # (excavator, partner, winner, hand-overs)
+    try:
+        for exc in (r for r in m.ctx.robots.values() if r.rtype == "excavator"):
+
+            def on_ack(msg, exc=exc, original=exc.house.on_ack):
+                original(msg)  # the winner's Ack: the auction closes when its process runs
+                task = exc.waiting_for
+                if not raced and msg.accepted and task is not None and exc.house.is_open(task):
+                    partner = next(h for h in ("hauler-1", "hauler-2") if h != msg.winner)
+                    exc._partner_arrived(partner)  # ...and the partner arrives meanwhile
+                    raced.append((exc.name, partner, msg.winner, len(given)))
+
+            def transfer(hauler, site, exc=exc, original=exc.transfer):
+                given.append((exc.name, hauler, str(exc.waiting_for)))
+                return original(hauler, site)
+
+            exc.house.on_ack = on_ack
+            exc.transfer = transfer
+        watch = InvariantWatch(m)
+        m.run()
+        watch.final()
+        assert m.status == "completed"
+    finally:
+        m.close()
+    assert raced, "no transport auction was won while its excavator waited"
+    name, _partner, winner, before = raced[0]
+    then = next(g for g in given[before:] if g[0] == name)
+    assert then[1] == winner, (raced, then)
+
+
 def test_the_local_rendezvous_delivers_by_name_and_sees_only_what_stands_near():
     m = Mission(small_scenario(), 1, "fcfs")
     try:
