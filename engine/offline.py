@@ -26,7 +26,7 @@ switch in the same way.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Set
+from collections.abc import Mapping, Sequence, Set
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -38,6 +38,7 @@ from engine.terrain import NEAR
 
 if TYPE_CHECKING:
     from engine.auction_rules import AuctionRecord
+    from engine.bidding import OpenAuction
     from engine.global_view import GlobalView, RobotState
 
 PATIENCE_S = 300.0
@@ -177,15 +178,25 @@ class OfflineAllocator:
         self.pending[key] = self.pending.get(key, 0) + (state == "pending") - (e.state == "pending")
         e.state = state
 
-    def invites(self, ctx: GlobalView, name: str, site_pos: Point, task_type: str) -> bool:
-        """Should this robot bid in an auction for this task? Only the robot whose next planned
-        task it is, or everyone when the plan does not cover it (bids decide nothing here;
-        they keep the records like the other policies' and wake an auction that waits)."""
-        site = self._site(ctx, site_pos)
-        if site is None or not self.pending.get((site, task_type), 0):
-            return True
-        nxt = self._next(ctx, name)
-        return nxt is not None and nxt.site == site
+    def invited(
+        self, ctx: GlobalView, name: str, auctions: Sequence[OpenAuction]
+    ) -> list[OpenAuction]:
+        """The auctions this robot should bid in: its next planned task's, and every one the
+        plan does not cover (bids decide nothing here; they keep the records like the other
+        policies' and wake an auction that waits). Its next task is looked up once, at the first
+        auction the plan covers: a look drops the entries past their patience, so a second one
+        at the same instant finds the same."""
+        out: list[OpenAuction] = []
+        looked, nxt = False, None
+        for a in auctions:
+            site = self._site(ctx, a.location)
+            if site is not None and self.pending.get((site, a.task_type), 0):
+                if not looked:
+                    looked, nxt = True, self._next(ctx, name)
+                if nxt is None or nxt.site != site:
+                    continue
+            out.append(a)
+        return out
 
     def _site(self, ctx: GlobalView, p: Point) -> str | None:
         """The site at a task's place (auctions name a site by its exact coordinates)."""

@@ -219,8 +219,7 @@ class Offline(EarlyTransports):
         plan = self._oracle
         if plan is None:
             return list(auctions)
-        world = self.global_view
-        return [a for a in auctions if plan.invites(world, view.name, a.location, a.task_type)]
+        return plan.invited(self.global_view, view.name, auctions)
 
     def queue_limit(self, rtype: str) -> int:
         return 1
