@@ -49,9 +49,10 @@ lint: $(STAMP)
 	$(BIN)/mypy engine field
 	$(BIN)/lint-imports
 
-# Two workers (pytest-xdist): most of the suite waits on servers, browsers and PostgreSQL,
-# and each worker has its own (free ports, its own temporary folders and cluster).
-TEST_WORKERS ?= 2
+# Three workers (pytest-xdist) on this two-core machine: part of the suite waits on servers,
+# browsers and PostgreSQL, and a third worker fills those waits (docs/benchmarks.md, Test
+# suite); each worker has its own free ports, temporary folders and cluster.
+TEST_WORKERS ?= 3
 
 # Field missions (tests marked `fleet`: twelve agent processes each, at 50-100x wall-clock
 # speed) run after the rest, alone on the machine: starved of CPU, their robots would miss
