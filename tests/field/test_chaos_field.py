@@ -354,6 +354,7 @@ def _stuck(m: FieldMission, seed: int) -> str:
             and any(n == e.get("by") or n in str(e["data"]) for n in loads)
         ][-40:]
     trail_txt = "\n".join(map(str, trail))
+    trail_txt += _unworked(m)
     exits = {p.name: p.exit for p in m.fleet.procs.values() if not p.alive}
     return (
         f"seed {seed}: not finished: {m.fleet.world.status()}\n"
@@ -363,6 +364,42 @@ def _stuck(m: FieldMission, seed: int) -> str:
         f"on board by the world's record: {loads}, their last pick-ups: {last}\n"
         f"last heartbeats: {beats}\n"
         f"their last events (t, by, event, data):\n{trail_txt}"
+    )
+
+
+def _unworked(m: FieldMission) -> str:
+    """The sites with minerals left, and what was said of their excavation: a mission whose
+    minerals wait in the ground while every robot idles."""
+    picture = m.fleet.world.last.get("picture") or {}
+    sites = [s for s in picture.get("sites", ()) if s["remaining"]]
+    where = {(round(s["x"], 3), round(s["y"], 3)) for s in sites}
+    with m.fleet.intake.lock:
+        auctions = [
+            a
+            for a in m.fleet.intake.auctions.values()
+            if a.get("task_type") == "excavate"
+            and tuple(round(c, 3) for c in a.get("location") or ()) in where
+        ]
+        tasks = {a["task_id"] for a in auctions}
+        said = [
+            (round(float(e["t"]), 1), e.get("by"), e["event"], e["data"])
+            for e in m.fleet.intake.events
+            if e["event"] != "auction_reannounced"
+            and any(t in json.dumps(e["data"], default=str) for t in tasks)
+        ][-40:]
+        auctioneers = {a.get("auctioneer") for a in auctions}
+        duties = [  # who noticed their auctioneers fail and took over what
+            (round(float(e["t"]), 1), e.get("by"), e["event"], e["data"])
+            for e in m.fleet.intake.events
+            if e["event"] in ("failure_detected", "takeover", "robot_enabled", "robot_failed")
+            and (e.get("by") in auctioneers or e["data"].get("robot") in auctioneers)
+        ][-40:]
+    brief = [{k: a.get(k) for k in ("id", "task_id", "status", "allocated_to")} for a in auctions]
+    return (
+        f"\nsites with minerals left: {sites}\ntheir excavation auctions: {brief}\n"
+        + "\n".join(map(str, said))
+        + "\nwhat their auctioneers did and had done to them:\n"
+        + "\n".join(map(str, duties))
     )
 
 
