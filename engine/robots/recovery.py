@@ -106,6 +106,7 @@ class Recovery:
         """A new life: nobody is thought down."""
         self.down: set[str] = set()
         self.down_at: dict[str, float] = {}
+        self.taken_over: set[str] = set()  # peers down whose Takeover by another I heard
 
     # --- heartbeats and peers -------------------------------------------------------------
     def beat(self) -> Any:
@@ -190,6 +191,7 @@ class Recovery:
         back = [p for p in self.down if board.last_heard(self.name, p) > self.down_at[p]]
         for peer in back:
             self.down.discard(peer)  # heard again since: it is back
+            self.taken_over.discard(peer)
             if bidder is not None:
                 bidder.auctioneers_changed()
         if back:  # its auctions count again, and a partner may be back: look again
@@ -240,9 +242,28 @@ class Recovery:
         robot.house.winner_down(peer)
         if robot.bidder is not None:
             robot.bidder.auctioneer_down(peer)
-        if self.peer_type(peer) == robot.rtype and self.is_adopter(peer):
-            self.adopt(peer)
+        if self.peer_type(peer) == robot.rtype:
+            if self.is_adopter(peer):
+                self.adopt(peer)
+            self._adopt_orphans(peer)
         robot.consider_bids()
+
+    def _adopt_orphans(self, fallen: str) -> None:
+        """`fallen` may have been the adopter of a peer that failed before it and fell before
+        it noticed: that peer's duties are nobody's. A peer of my type down by my verdict,
+        whose adoption nobody announced (no Takeover heard, no heartbeat of my type lists it)
+        is mine now if I am its adopter (field chaos seed 1: two sites never dug)."""
+        rtype = self.robot.rtype
+        board = self.ctx.liveness
+        kin = self.peers_of_type(rtype)
+        for p in sorted(self.down - {fallen} - set(self.adopted) - self.taken_over):
+            if self.peer_type(p) != rtype:
+                continue
+            beats = (board.last_heartbeat(self.name, n) for n in kin if n != p)
+            if any(hb is not None and p in hb.adopted for hb in beats):
+                continue
+            if self.is_adopter(p):
+                self.adopt(p)
 
     def is_adopter(self, peer: str) -> bool:
         """The smallest-named live robot of my type adopts a silent peer."""
@@ -383,6 +404,7 @@ class Recovery:
                 if self.robot.search is not None:
                     self.robot.search.on_cells_taken(msg.cells)
             return
+        self.taken_over.add(msg.failed)
         mine = self.adopted.get(msg.failed)
         if mine is not None and msg.sender < self.name:
             self.robot.house.drop_adopted(mine)

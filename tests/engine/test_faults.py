@@ -394,3 +394,24 @@ def test_a_void_while_another_robot_holds_the_task_moves_the_watch_to_it() -> No
     )
     scout.house.task_done(void)
     assert [a.winner for a in scout.house.watches() if a.task_id == alloc.task_id] == [other.name]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_peer_whose_adopter_fell_before_noticing_it_is_adopted_by_the_next(seed: int) -> None:
+    """Field chaos seed 1: scout-3 fails; scout-1, its adopter (the smallest name), fails
+    before it notices; scout-2 had let scout-3 be, scout-1 being alive. When scout-2 finds
+    scout-1 down it adopts both: without it, scout-3's sites and cells were nobody's and the
+    mission stalled (4 seeds of 4)."""
+    data = reference_scenario().model_dump()
+    data["team"]["scouts"] = 3
+    m = Mission(parse_scenario(data), seed, "fcfs")
+    watch = InvariantWatch(m)
+    m.advance(400.0)
+    m.disable_robot("scout-3", "abrupt")
+    m.advance(425.0)  # scout-1 last heard within the failure timeout when scout-2 notices
+    m.disable_robot("scout-1", "abrupt")
+    metrics = m.run()
+    watch.final()
+    adopted = {e["robot"] for e in events_of(m, "takeover") if e["by"] == "scout-2"}
+    assert adopted == {"scout-1", "scout-3"}
+    assert m.status == "completed" and metrics["minerals_delivered"] == 64
