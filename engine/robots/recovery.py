@@ -412,7 +412,9 @@ class Recovery:
             if self.robot.search is not None:
                 self.robot.search.on_adoption_undone(msg.failed)
         self.peer_duties.peer_open.pop(msg.failed, None)
-        self.peer_duties.forget_peer_allocs(msg.failed)
+        for tid, alloc in self.peer_duties.forget_peer_allocs(msg.failed).items():
+            if tid in msg.tasks:  # its adopter watches it now: adopted with it if it falls too
+                self.peer_duties.note_peer_alloc(msg.sender, alloc)
         if self.robot.search is not None:
             self.robot.search.on_takeover_heard(msg)
 

@@ -415,3 +415,25 @@ def test_a_peer_whose_adopter_fell_before_noticing_it_is_adopted_by_the_next(see
     adopted = {e["robot"] for e in events_of(m, "takeover") if e["by"] == "scout-2"}
     assert adopted == {"scout-1", "scout-3"}
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
+
+
+@pytest.mark.parametrize("policy", ["fcfs", "nearest"])
+def test_a_watch_adopted_twice_is_still_watched(policy: str) -> None:
+    """scout-2 leaves and scout-1 adopts its watch of a site's excavator; scout-1 leaves too
+    and scout-3 adopts scout-1. A peer that hears a Takeover moves the failed robot's watches
+    the adopter lists to the adopter's record, so scout-3 watches the site and offers it again
+    when its excavator dies. Without it the site stayed half dug (2 of 2 stalled, 60 of 64)."""
+    data = reference_scenario().model_dump()
+    data["team"].update(scouts=3, excavators=3, haulers=3)
+    m = Mission(parse_scenario(data), 19, policy, planner="straight")
+    watch = InvariantWatch(m)
+    for t, name, mode in (
+        (816.0, "scout-2", "graceful"),
+        (830.0, "scout-1", "graceful"),
+        (933.0, "excavator-2", "abrupt"),
+    ):
+        m.advance(t)
+        m.disable_robot(name, mode)
+    metrics = m.run()
+    watch.final()
+    assert m.status == "completed" and metrics["minerals_delivered"] == 64
