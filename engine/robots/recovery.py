@@ -12,71 +12,17 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any
 
 import simpy
 
 from engine.auction_rules import AUCTION_KINDS, Duties
 from engine.messages import Heartbeat, Hello, Holding, Leaving, Probe, Revoke, Takeover, TaskDone
 from engine.robots.peer_duties import PeerDuties
-
-if TYPE_CHECKING:
-    from engine.auction_house import AuctionHouse
-    from engine.context import MissionContext
-    from engine.robots.bidder import Bidder
-    from engine.robots.core import Assignment
-    from engine.robots.mobility import Mobility
+from engine.robots.recovery_ports import RecoveringRobot
 
 DONE_MEMORY = 8
 """How many finished task ids a heartbeat repeats, for auctioneers that missed a TaskDone."""
-
-
-class RecoveringRobot(Protocol):
-    """What the recovery part needs of its robot: what it is and holds, its other parts, and
-    the hooks a robot type fills in (a scout's search: `adopt_extra`, `on_cells_taken`, …)."""
-
-    name: str
-    rtype: str
-    ctx: MissionContext
-    house: AuctionHouse
-    bidder: Bidder | None
-    mobility: Mobility
-    peers: dict[str, str]
-    current: Assignment | None
-    queue: deque[Assignment]
-    life_proc: Any
-
-    @property
-    def state(self) -> str: ...
-    @property
-    def participating(self) -> bool: ...
-    @property
-    def down(self) -> set[str]: ...
-    def tasks_changed(self) -> None: ...
-    def heartbeat(self) -> None: ...
-    def check_peers(self) -> None: ...
-    def wake(self) -> None: ...
-    def consider_bids(self) -> None: ...
-    def spawn(self, gen: Any) -> None: ...
-    def tasks_held(self) -> list[Assignment]: ...
-    def load(self) -> int: ...
-    @property
-    def search(self) -> SearchHooks | None: ...
-    def on_rejoined(self) -> None: ...
-    def on_task_done_heard(self, msg: TaskDone) -> None: ...
-
-
-class SearchHooks(Protocol):
-    """What recovery tells a scout's share of the search (`engine.robots.search.Search`)."""
-
-    def reported(self) -> int: ...
-    def handoffs_received(self) -> tuple[str, ...]: ...
-    def adopt_extra(self, peer: str) -> list[int]: ...
-    def on_cells_taken(self, cells: tuple[int, ...]) -> None: ...
-    def on_adoption_undone(self, failed: str) -> None: ...
-    def on_takeover_heard(self, msg: Takeover) -> None: ...
-    def on_hello_heard(self, msg: Hello) -> None: ...
-    def check_handoffs(self) -> None: ...
 
 
 class Recovery:
