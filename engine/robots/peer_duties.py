@@ -45,11 +45,16 @@ class PeerDuties:
         """A peer of my type announced an auction. An auctioneer runs one auction per task, so
         an earlier one of the same task is over, whether or not I heard its Close (a lossy
         bus): adopting the peer must offer the task as it offered it last, not as it once did
-        (a lost mineral searched for at its pick-up point instead of along its route)."""
+        (a lost mineral searched for at its pick-up point instead of along its route). So is
+        its earlier allocation: one released stays in my record until this moment, in case
+        the peer falls before it offers the task again."""
         auctions = self.peer_open.setdefault(peer, {})
         for aid in [aid for aid, a in auctions.items() if a.task_id == info.task_id]:
             del auctions[aid]
         auctions[info.auction_id] = info
+        allocs = self.peer_alloc.get(peer)
+        if allocs is not None and allocs.pop(info.task_id, None) is not None:
+            self._unlist(info.task_id, peer)  # offered again: its earlier allocation is over
 
     def note_peer_alloc(self, peer: str, alloc: Allocation) -> None:
         """A peer of my type allocated a task (its Close): remembered for adopting its watch."""

@@ -310,8 +310,10 @@ class Recovery:
 
     def on_task_done(self, msg: TaskDone) -> None:
         # only the robot a task was allocated to ends that allocation (a duplicate holder's
-        # "void" must not end the real holder's watch)
-        self.peer_duties.end_peer_alloc(msg.task_id, msg.sender)
+        # "void" must not end the real holder's watch); a released task is its watcher's to
+        # offer again, and stays in my record of it until it does (it may fall first)
+        if msg.outcome != "released":
+            self.peer_duties.end_peer_alloc(msg.task_id, msg.sender)
         self.robot.house.task_done(msg)
         self.robot.on_task_done_heard(msg)
 

@@ -437,3 +437,28 @@ def test_a_watch_adopted_twice_is_still_watched(policy: str) -> None:
     metrics = m.run()
     watch.final()
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
+
+
+def test_a_site_released_to_a_fallen_scout_is_offered_again_by_its_adopter() -> None:
+    """Attrition seed 4: scout-3 fails; before scout-1 notices, scout-3's excavator leaves
+    and releases the site to it, heard only by the scouts still alive. A released task is its
+    auctioneer's to offer again, so the peers keep their record of the allocation until that
+    auctioneer does; scout-1 then offers the site when it adopts scout-3. Without it nobody
+    did, and the site kept five minerals (Policy 3: 59 of 64)."""
+    data = reference_scenario().model_dump()
+    data["team"].update(scouts=3, excavators=3, haulers=3)
+    m = Mission(parse_scenario(data), 4, "nearest", planner="straight")
+    watch = InvariantWatch(m)
+    for t, name, mode in ((798.0, "scout-3", "abrupt"), (832.0, "excavator-2", "graceful")):
+        m.advance(t)
+        m.disable_robot(name, mode)
+    metrics = m.run()
+    watch.final()
+    [released] = [e for e in events_of(m, "task_ended") if e["outcome"] == "released"]
+    again = [
+        e
+        for e in events_of(m, "auction_opened")
+        if e["task_id"] == released["task_id"] and e["auctioneer"] == "scout-1"
+    ]
+    assert again, "the adopter never offered the released site again"
+    assert m.status == "completed" and metrics["minerals_delivered"] == 64

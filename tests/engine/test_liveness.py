@@ -87,14 +87,17 @@ def test_an_adopter_that_missed_closes_offers_a_lost_mineral_as_last_offered() -
     """Random actions on a lossy bus: an excavator failed while re-offering the transport of a
     mineral its hauler had dropped on the way. Its adopter had missed the Closes of the two
     earlier auctions of that transport and re-opened the oldest, which searched only the
-    pick-up point: the mineral stayed on the ground and the mission stalled at 63 of 64."""
+    pick-up point: the mineral stayed on the ground and the mission stalled at 63 of 64.
+
+    Since peers keep a released allocation until its auctioneer offers the task again, the
+    replay takes another course (excavator-4's adopter no longer offers a transport already
+    done), and that mineral goes by hand-over; `test_faults.py::
+    test_an_adopter_offers_a_peers_task_as_the_peer_offered_it_last` holds the rule itself."""
     m = _replay("lossy_chaos_adoption.json")
+    watch = InvariantWatch(m)
     m.run()
+    watch.final()
     assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
-    opened = [e.data for e in m.ctx.observer.log.events if e.kind == "auction_opened"]
-    adopted = [d for d in opened if d["auctioneer"] == "excavator-1" and "#" in d["task_id"]]
-    lost = [d for d in adopted if d["task_id"] == "excavator-2#m13"]
-    assert lost and lost[0]["reauction_of"] == "excavator-2/13", lost
 
 
 def test_an_adopter_that_missed_a_close_searches_for_the_failed_holders_mineral() -> None:
