@@ -170,7 +170,9 @@ class Recovery:
                     return
         finally:
             self._probing.discard(peer)
-        if peer not in self.down and self.robot.participating:
+        # a robot leaving still finishes its hand-over, so it must see the hauler it waits
+        # on fall (attrition seed 77: it waited for ever, and kept its peers from adopting)
+        if peer not in self.down and self.robot.alive:
             self.mark_down(peer)
 
     def mark_down(self, peer: str) -> None:

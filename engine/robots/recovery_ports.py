@@ -28,6 +28,7 @@ class RecoveringRobot(Protocol):
     bidder: Bidder | None
     mobility: Mobility
     peers: dict[str, str]
+    alive: bool
     current: Assignment | None
     queue: deque[Assignment]
     life_proc: Any

@@ -462,3 +462,22 @@ def test_a_site_released_to_a_fallen_scout_is_offered_again_by_its_adopter() -> 
     ]
     assert again, "the adopter never offered the released site again"
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
+
+
+def test_a_leaving_excavator_whose_hauler_falls_offers_the_mineral_again_and_leaves() -> None:
+    """Attrition seed 77: hauler-1 fails on its way to excavator-2's mineral, and excavator-2
+    is told to leave before it notices. A robot leaving finishes its hand-over first, so it
+    must still find the hauler it waits on down: it did not (only a participating robot
+    declared a peer failed), waited for ever, and being alive kept its peers from adopting
+    another excavator's duties (62 of 64)."""
+    data = reference_scenario().model_dump()
+    data["team"].update(scouts=3, excavators=3, haulers=3)
+    m = Mission(parse_scenario(data), 77, "nearest", planner="straight")
+    watch = InvariantWatch(m)
+    for t, name, mode in ((1330.0, "hauler-1", "abrupt"), (1365.0, "excavator-2", "graceful")):
+        m.advance(t)
+        m.disable_robot(name, mode)
+    metrics = m.run()
+    watch.final()
+    assert [e["robot"] for e in events_of(m, "robot_quiet")] == ["excavator-2"]
+    assert m.status == "completed" and metrics["minerals_delivered"] == 64
