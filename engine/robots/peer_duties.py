@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from engine.auction_rules import Allocation
 from engine.bidding import OpenAuction
+from engine.policies import coalition_partner
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
@@ -40,6 +41,8 @@ class PeerDuties:
         self.peer_open: dict[str, dict[str, OpenAuction]] = {}
         self.peer_alloc: dict[str, dict[str, Allocation]] = {}
         self._alloc_peers: dict[str, set[str]] = {}  # task id -> peers whose peer_alloc has it
+        # robot -> the task of its last TaskDone I heard (kept by excavators under Policy 2)
+        self.last_done: dict[str, str] = {}
 
     def note_peer_open(self, peer: str, info: OpenAuction) -> None:
         """A peer of my type announced an auction. An auctioneer runs one auction per task, so
@@ -116,6 +119,28 @@ class PeerDuties:
                     aid, a.task_id, a.task_type, a.location, holder, now, a.search_path
                 )
         return found
+
+    def hand_over_unheard(self, peer: str) -> dict[str, Allocation]:
+        """What `peer`'s coalition partner carries for it, as far as its last heartbeat I
+        heard says, if no auction I heard of allocated it: Policy 2's excavator loads its
+        partner outside any auction, so only that excavator watched the transport (attrition
+        seed 77: the partner fell carrying it, the excavator fell before it noticed, and the
+        mineral stayed on the ground). Its task as its holder's watch, for my adoption."""
+        partner = coalition_partner(peer)
+        if partner is None:
+            return {}
+        hb = self.recovery.ctx.liveness.last_heartbeat(self.recovery.name, partner)
+        if hb is None or not hb.load or not hb.tasks or hb.tasks[0] in self._alloc_peers:
+            return {}
+        if self.last_done.get(partner) == hb.tasks[0]:
+            return {}  # delivered after that heartbeat (and gone quiet since, say)
+        now = float(self.recovery.ctx.env.now)
+        task_id = hb.tasks[0]  # the task of the mineral it carries
+        return {
+            task_id: Allocation(
+                f"{peer}/coalition", task_id, "transport", (hb.x, hb.y), partner, now
+            )
+        }
 
 
 def _fresh(a: OpenAuction, hb: Heartbeat | None) -> bool:

@@ -234,6 +234,7 @@ class Recovery:
         # an auction whose Close I missed is not open: its task is watched, or offered again
         # from where its holder was last heard (not from the auction's own place)
         closed = self.peer_duties.closed_unheard(peer)
+        handed = self.peer_duties.hand_over_unheard(peer) if kind == "excavator_hauler" else {}
         for info in self.peer_duties.peer_open.pop(peer, {}).values():
             rec = house.open(
                 info.task_type,
@@ -245,7 +246,10 @@ class Recovery:
             )
             opened.append(rec.id)
             tasks.append(info.task_id)
-        for tid, alloc in {**self.peer_duties.forget_peer_allocs(peer), **closed}.items():
+        for tid in [t for t in handed if house.watching(t) or house.is_open(t)]:
+            del handed[tid]  # a task of mine its partner won in my auction
+        allocs = {**handed, **self.peer_duties.forget_peer_allocs(peer), **closed}
+        for tid, alloc in allocs.items():
             tasks.append(tid)
             if alloc.winner in self.down:  # search where its holder was last heard carrying it
                 house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
@@ -316,6 +320,8 @@ class Recovery:
         # offer again, and stays in my record of it until it does (it may fall first)
         if msg.outcome != "released":
             self.peer_duties.end_peer_alloc(msg.task_id, msg.sender)
+        if self.robot.rtype == "excavator" and self.ctx.policy.coalitions():
+            self.peer_duties.last_done[msg.sender] = msg.task_id  # for `hand_over_unheard`
         self.robot.house.task_done(msg)
         self.robot.on_task_done_heard(msg)
 

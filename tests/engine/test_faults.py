@@ -481,3 +481,49 @@ def test_a_leaving_excavator_whose_hauler_falls_offers_the_mineral_again_and_lea
     watch.final()
     assert [e["robot"] for e in events_of(m, "robot_quiet")] == ["excavator-2"]
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
+
+
+@pytest.mark.parametrize("policy", ["coalition", "coalition-relaxed"])
+def test_a_partners_load_is_offered_again_when_it_and_its_excavator_fall(policy: str) -> None:
+    """Attrition seed 77: under Policy 2, excavator-1 loads its partner hauler-1 outside any
+    auction, so only excavator-1 watches that transport. hauler-1 falls carrying it, and
+    excavator-1 falls before it notices. Its adopter reads what the partner's last heartbeat
+    says it carried and offers it again along its route; without it the mineral stayed on the
+    ground (63 of 64)."""
+    data = reference_scenario().model_dump()
+    data["team"].update(scouts=3, excavators=3, haulers=3)
+    m = Mission(parse_scenario(data), 77, policy, planner="straight")
+    watch = InvariantWatch(m)
+    for t, name, mode in ((1330.0, "hauler-1", "abrupt"), (1369.0, "excavator-1", "abrupt")):
+        m.advance(t)
+        m.disable_robot(name, mode)
+    metrics = m.run()
+    watch.final()
+    again = [
+        e
+        for e in events_of(m, "auction_opened")
+        if e["task_id"] == "excavator-1#m11" and e["reauction_of"] == "excavator-1/coalition"
+    ]
+    assert [e["auctioneer"] for e in again] == ["excavator-2"]
+    assert m.status == "completed" and metrics["minerals_delivered"] == 64
+
+
+def test_a_partners_load_delivered_before_it_went_quiet_is_not_offered_again() -> None:
+    """The same rule must not trust a heartbeat older than the partner's TaskDone: excavator-2
+    leaves, its partner hauler-2 delivers and leaves before it says so in a heartbeat, and the
+    adopter offered that delivered mineral again (attrition seed 77, Policy 2)."""
+    data = reference_scenario().model_dump()
+    data["team"].update(scouts=3, excavators=3, haulers=3)
+    m = Mission(parse_scenario(data), 77, "coalition", planner="straight")
+    for t, name, mode in ((1365.0, "excavator-2", "graceful"), (1367.0, "hauler-2", "graceful")):
+        m.advance(t)
+        m.disable_robot(name, mode)
+    metrics = m.run()
+    delivered = {e["task_id"] for e in events_of(m, "task_ended") if e["outcome"] == "done"}
+    offered_after = [
+        e["task_id"]
+        for e in events_of(m, "auction_opened")
+        if e["task_id"] in delivered and e["reauction_of"] == "excavator-2/coalition"
+    ]
+    assert offered_after == []
+    assert m.status == "completed" and metrics["minerals_delivered"] == 64
