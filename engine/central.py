@@ -69,7 +69,7 @@ class OracleAllocator:
         tasks = [
             a
             for a in ctx.observer.auctions
-            if a.status == "open" and a.task_type == rec.task_type and _running(ctx, a)
+            if a.status == "open" and a.task_type == rec.task_type and running(ctx, a)
         ]
         if rec not in tasks:
             return []
@@ -81,7 +81,7 @@ class OracleAllocator:
         return assign_greedily(ctx, rec, tasks, promised, excluded)
 
 
-def _running(ctx: GlobalView, rec: AuctionRecord) -> bool:
+def running(ctx: GlobalView, rec: AuctionRecord) -> bool:
     """Is the auction run now? A record stays open when its auctioneer fails until an
     auction naming it takes it over: no robot can be sent to it meanwhile. (The operator's
     console is no robot of the view, and never fails: its records are true.)"""

@@ -30,7 +30,7 @@ from collections.abc import Mapping, Sequence, Set
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from engine.central import assign_greedily
+from engine.central import assign_greedily, running
 from engine.foresight import SnappingPlanner, legs, predict_found
 from engine.geometry import Point, dist
 from engine.schedule import Job, Problem, Schedule, Unit, optimize
@@ -158,11 +158,16 @@ class OfflineAllocator:
         return [] if self.pending.get((site, rec.task_type), 0) else None
 
     def _greedy(self, ctx: GlobalView, rec: AuctionRecord, excluded: Set[str]) -> list[str]:
-        """central-greedy's rule over the open tasks the plan does not cover."""
+        """central-greedy's rule over the open tasks the plan does not cover, and that are run
+        (attrition seed 45: a failed auctioneer's record, open until its adopter takes it
+        over, drew the last hauler, and every auction really run waited for ever)."""
         tasks = [
             a
             for a in ctx.observer.auctions
-            if a.status == "open" and a.task_type == rec.task_type and not self._covers(ctx, a)
+            if a.status == "open"
+            and a.task_type == rec.task_type
+            and running(ctx, a)
+            and not self._covers(ctx, a)
         ]
         if rec not in tasks:
             tasks.append(rec)
