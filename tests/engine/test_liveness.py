@@ -190,7 +190,7 @@ def test_random_operator_actions_then_full_restore_finish(seed: int, policy: str
 # Attrition: all but one robot of each type fail for good (experiments/attrition.py). Before
 # the adoption fixes of docs/faults.md ("Attrition") 162 of 700 such missions stalled
 # (bench/attrition_bench.py --seeds 100); none does now. Seeds 0-3 for every policy, and the
-# seven missions of seeds 4-99 that were the last to stall.
+# missions of seeds 4-299 that were the last to stall.
 LAST_TO_STALL = [
     (4, "nearest"),
     (12, "fcfs"),
@@ -199,6 +199,11 @@ LAST_TO_STALL = [
     (77, "coalition-relaxed"),
     (77, "nearest"),
     (77, "offline"),
+    (179, "fcfs"),
+    (196, "coalition"),
+    (256, "lookahead"),
+    (271, "lookahead"),
+    (296, "nearest"),
 ]
 ATTRITION_CASES = [
     *((seed, policy) for seed in range(4) for policy in sorted(POLICIES)),
