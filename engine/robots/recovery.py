@@ -18,6 +18,7 @@ import simpy
 
 from engine.auction_rules import AUCTION_KINDS, Duties
 from engine.messages import Heartbeat, Hello, Holding, Leaving, Probe, Revoke, Takeover, TaskDone
+from engine.policies import coalition_partner
 from engine.robots.peer_duties import PeerDuties
 from engine.robots.recovery_ports import RecoveringRobot
 
@@ -188,6 +189,7 @@ class Recovery:
         robot = self.robot
         self.ctx.observer.emit("failure_detected", by=self.name, robot=peer)
         robot.house.winner_down(peer)
+        self._adopted_partners_load(peer)
         if robot.bidder is not None:
             robot.bidder.auctioneer_down(peer)
         if self.peer_type(peer) == robot.rtype:
@@ -195,6 +197,17 @@ class Recovery:
                 self.adopt(peer)
             self._adopt_orphans(peer)
         robot.consider_bids()
+
+    def _adopted_partners_load(self, hauler: str) -> None:
+        """`hauler` fell: if it was the Policy-2 partner of an excavator I adopted, what it
+        carried for that excavator may have been loaded after my adoption (a graceful leave
+        ends just after its hand-over), so nobody watches it: offered again along its route
+        (attrition seed 172: the load lay on the road for ever)."""
+        house = self.robot.house
+        for peer in [p for p in self.adopted if coalition_partner(p) == hauler]:
+            for tid, alloc in self.peer_duties.hand_over_unheard(peer).items():
+                if not house.watching(tid) and not house.is_open(tid):
+                    house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, hauler))
 
     def _adopt_orphans(self, fallen: str) -> None:
         """`fallen` may have been the adopter of a peer that failed before it and fell before

@@ -527,3 +527,27 @@ def test_a_partners_load_delivered_before_it_went_quiet_is_not_offered_again() -
     ]
     assert offered_after == []
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
+
+
+def test_a_partners_load_taken_after_its_excavator_left_is_offered_again_when_it_falls() -> None:
+    """Attrition seed 172, Policy 2: excavator-1 leaves; its last act is to load its partner
+    hauler-1, and excavator-2 adopts it before hauler-1's heartbeat says what it carries.
+    hauler-1 then falls with the load. excavator-2 reads the fallen partner's last heartbeat
+    when it finds it down and offers the load again; without it the mineral lay on the road
+    (63 of 64)."""
+    data = reference_scenario().model_dump()
+    data["team"].update(scouts=3, excavators=3, haulers=3)
+    m = Mission(parse_scenario(data), 172, "coalition", planner="straight")
+    watch = InvariantWatch(m)
+    for t, name, mode in ((1151.0, "excavator-1", "graceful"), (1283.0, "hauler-1", "abrupt")):
+        m.advance(t)
+        m.disable_robot(name, mode)
+    metrics = m.run()
+    watch.final()
+    again = [
+        e["auctioneer"]
+        for e in events_of(m, "auction_opened")
+        if e["reauction_of"] == "excavator-1/coalition"
+    ]
+    assert again == ["excavator-2"]
+    assert m.status == "completed" and metrics["minerals_delivered"] == 64

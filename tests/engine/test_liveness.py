@@ -199,6 +199,7 @@ LAST_TO_STALL = [
     (77, "coalition-relaxed"),
     (77, "nearest"),
     (77, "offline"),
+    (172, "coalition"),
     (179, "fcfs"),
     (196, "coalition"),
     (256, "lookahead"),
