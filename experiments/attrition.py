@@ -8,7 +8,9 @@ again, which heals a duty nobody adopted; a field robot's new life starts with n
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -33,6 +35,12 @@ class AttritionRun:
         return self.status == "completed" and self.delivered == self.total
 
 
+class Watch(Protocol):
+    """A check run beside the mission (the tests' invariant watch): `final` after its end."""
+
+    def final(self) -> None: ...
+
+
 def attrition_team(scenario: Scenario, each: int = 3) -> Scenario:
     """The scenario with `each` robots of every type."""
     data = scenario.model_dump()
@@ -48,11 +56,13 @@ def attrition_mission(
     window_s: tuple[float, float] = (100.0, 1500.0),
     spell_s: float = 40.0,
     planner: str = "straight",
+    watch: Callable[[Mission], Watch] | None = None,
 ) -> AttritionRun:
     """Run one mission in which all but one robot of each type fail for good: each type's
     first failure at a random time in `window_s`, the others within `spell_s` after it."""
     rng = np.random.default_rng([seed, 0xA771])
     m = Mission(scenario, seed, policy, planner=planner)  # type: ignore[arg-type]
+    watcher = None if watch is None else watch(m)
     failures: list[tuple[float, str, str]] = []
     for rtype in TYPES:
         names = sorted(r["name"] for r in m.robot_list() if r["type"] == rtype)
@@ -70,6 +80,8 @@ def attrition_mission(
                 break
             m.disable_robot(name, mode)
         m.run()
+        if watcher is not None:
+            watcher.final()
     finally:
         m.close()
     run.status, run.delivered = m.status, m.ctx.terrain.delivered

@@ -130,7 +130,9 @@ class PeerDuties:
         if partner is None:
             return {}
         hb = self.recovery.ctx.liveness.last_heartbeat(self.recovery.name, partner)
-        if hb is None or not hb.load or not hb.tasks or hb.tasks[0] in self._alloc_peers:
+        if hb is None or hb.rtype != "hauler" or not hb.load or not hb.tasks:
+            return {}  # (a hauler's own partner is an excavator: not a hand-over it carries)
+        if hb.tasks[0] in self._alloc_peers:
             return {}
         if self.last_done.get(partner) == hb.tasks[0]:
             return {}  # delivered after that heartbeat (and gone quiet since, say)

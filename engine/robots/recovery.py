@@ -203,6 +203,8 @@ class Recovery:
         carried for that excavator may have been loaded after my adoption (a graceful leave
         ends just after its hand-over), so nobody watches it: offered again along its route
         (attrition seed 172: the load lay on the road for ever)."""
+        if self.robot.rtype != "excavator":
+            return  # (the partner rule is symmetric: a hauler's adopted peers have partners too)
         house = self.robot.house
         for peer in [p for p in self.adopted if coalition_partner(p) == hauler]:
             for tid, alloc in self.peer_duties.hand_over_unheard(peer).items():

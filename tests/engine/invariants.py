@@ -7,6 +7,9 @@ from collections import Counter
 from engine import Mission
 from engine.events import Event
 
+OFFERS = {"scout": {"excavate"}, "excavator": {"transport"}, "hauler": set()}
+"""What each robot type may offer (the operator's console offers either)."""
+
 
 class InvariantWatch:
     """Subscribes to a mission and asserts the invariants after each event."""
@@ -36,7 +39,11 @@ class InvariantWatch:
         assert all(n == 1 for n in holders.values()), f"a task held twice: {holders}"
 
     def final(self) -> None:
+        robots = self.m.ctx.robots
         for rec in self.m.auctions:
+            rtype = robots[rec.auctioneer].rtype if rec.auctioneer in robots else "operator"
+            offers = OFFERS.get(rtype, {rec.task_type})
+            assert rec.task_type in offers, f"a {rtype} offered a {rec.task_type}: {rec.id}"
             accepted = [a for a in rec.awards if a.outcome == "accepted"]
             if rec.status == "closed":
                 assert rec.allocated_to is not None
