@@ -69,7 +69,13 @@ class Hauler(Robot):
             yield from self.wait_loaded(exc.name, a.task_id)
         if not self.bin:
             yield from self.pick_from_ground(self.pos)
-        route = a.search_path or self._road_if_unattended(a)
+        route = a.search_path
+        if not route and not self.bin and self._excavator_here(lambda e: True) is None:
+            # nothing here and no excavator: another hauler may have taken this mineral and
+            # fallen with it on the road, leaving its own unclaimed (attrition seed 179: a
+            # search for a lost load found a fallen excavator's bucket at the pick-up point
+            # first; the bucket's transport then came up empty and the load lay on the road)
+            route = self.ctx.road_to_plant(a.location)
         if not self.bin and route:
             yield from self.search_along(route)
             yield from self.pick_from_ground(self.pos)
@@ -78,16 +84,6 @@ class Hauler(Robot):
             return
         yield from self.deliver()
         self.finish(a)
-
-    def _road_if_unattended(self, a: Assignment) -> tuple[Point, ...]:
-        """Nothing at a transport's place and no excavator there: another hauler may have
-        taken this mineral and then fallen with it on the road, leaving its own mineral
-        unclaimed there (attrition seed 179: a search for a lost load found a failed
-        excavator's bucket at the pick-up point first; the bucket's own transport then came
-        up empty and the load lay on the road for ever). Look along the road to the plant."""
-        if self.bin or self._excavator_here(lambda e: True) is not None:
-            return ()
-        return self.ctx.road_to_plant(a.location)
 
     def wait_for_excavator(self, a: Assignment) -> Any:
         """Came for a transport auctioned ahead and the excavator is not here yet: wait for it
