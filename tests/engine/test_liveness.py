@@ -67,6 +67,9 @@ def _replay(name: str, leave_out: str | None = None) -> Mission:
     scenario = parse_scenario({**base.model_dump(), **case["scenario"]})
     m = Mission(scenario, case["seed"], case["policy"], planner=case.get("planner", "ompl"))
     for action in case["actions"]:
+        m.advance(float(action["t"]))
+        if m.done:
+            break  # (a later engine may finish before the session's last actions)
         if action["kind"] != "set_policy" or action["args"]["policy"] != leave_out:
             m.apply(action)
     return m
@@ -105,13 +108,17 @@ def test_an_adopter_that_missed_a_close_searches_for_the_failed_holders_mineral(
     excavator left. The adopter had missed that transport's Close: it auctioned the task
     again from the pick-up point, the winner found nothing there, and the mineral stayed on
     the ground (63 of 64). Now it watches the hauler its heartbeat names, and offers the task
-    again from where that hauler was last heard once it is found down."""
+    again from where that hauler was last heard once it is found down.
+
+    Since a hauler that finds nothing at an unattended place searches the road to the plant,
+    the replay takes another course (another hauler wins that transport and delivers it);
+    `test_faults.py::test_an_adopter_that_missed_a_close_watches_the_task_its_holder_lists`
+    holds the rule itself."""
     m = _replay("lossy_chaos_unheard_close.json")
+    watch = InvariantWatch(m)
     m.run()
+    watch.final()
     assert (m.status, m.ctx.terrain.delivered) == ("completed", 64)
-    opened = [e.data for e in m.ctx.observer.log.events if e.kind == "auction_opened"]
-    again = [d for d in opened if d["task_id"] == "excavator-3#m18" and d["reauction_of"]]
-    assert again and again[0]["location"] != [6.327, 98.87], again
 
 
 def test_the_central_allocator_counts_only_auctions_that_are_run() -> None:
@@ -214,7 +221,9 @@ ATTRITION_CASES = [
 
 @pytest.mark.parametrize(("seed", "policy"), ATTRITION_CASES)
 def test_the_survivors_of_attrition_finish_the_mission(seed: int, policy: str) -> None:
-    run = attrition_mission(attrition_team(reference_scenario()), seed, policy)
+    run = attrition_mission(
+        attrition_team(reference_scenario()), seed, policy, watch=InvariantWatch
+    )
     assert run.finished, (run.status, run.delivered, run.failures)
 
 
