@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from engine import Mission, parse_scenario, reference_scenario
 from engine.bidding import OpenAuction
 from engine.messages import Announce, Holding, Message, TaskDone
+from experiments.attrition import attrition_team
 from tests.engine.factories import FAILURES, events_of, play_actions
 from tests.engine.invariants import InvariantWatch
 
@@ -417,25 +418,36 @@ def test_a_peer_whose_adopter_fell_before_noticing_it_is_adopted_by_the_next(see
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
 
 
+def _three_of_each_losing(
+    seed: int, policy: str, losses: tuple[tuple[float, str, str], ...]
+) -> tuple[Mission, dict]:
+    """Attrition's team (three robots of each type), `losses` (time, robot, mode) applied, run
+    to its end under the invariant watch: the mission and its metrics."""
+    m = Mission(attrition_team(reference_scenario()), seed, policy, planner="straight")
+    watch = InvariantWatch(m)
+    for t, name, mode in losses:
+        m.advance(t)
+        m.disable_robot(name, mode)
+    metrics = m.run()
+    watch.final()
+    return m, metrics
+
+
 @pytest.mark.parametrize("policy", ["fcfs", "nearest"])
 def test_a_watch_adopted_twice_is_still_watched(policy: str) -> None:
     """scout-2 leaves and scout-1 adopts its watch of a site's excavator; scout-1 leaves too
     and scout-3 adopts scout-1. A peer that hears a Takeover moves the failed robot's watches
     the adopter lists to the adopter's record, so scout-3 watches the site and offers it again
     when its excavator dies. Without it the site stayed half dug (2 of 2 stalled, 60 of 64)."""
-    data = reference_scenario().model_dump()
-    data["team"].update(scouts=3, excavators=3, haulers=3)
-    m = Mission(parse_scenario(data), 19, policy, planner="straight")
-    watch = InvariantWatch(m)
-    for t, name, mode in (
-        (816.0, "scout-2", "graceful"),
-        (830.0, "scout-1", "graceful"),
-        (933.0, "excavator-2", "abrupt"),
-    ):
-        m.advance(t)
-        m.disable_robot(name, mode)
-    metrics = m.run()
-    watch.final()
+    m, metrics = _three_of_each_losing(
+        19,
+        policy,
+        (
+            (816.0, "scout-2", "graceful"),
+            (830.0, "scout-1", "graceful"),
+            (933.0, "excavator-2", "abrupt"),
+        ),
+    )
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
 
 
@@ -445,15 +457,9 @@ def test_a_site_released_to_a_fallen_scout_is_offered_again_by_its_adopter() -> 
     auctioneer's to offer again, so the peers keep their record of the allocation until that
     auctioneer does; scout-1 then offers the site when it adopts scout-3. Without it nobody
     did, and the site kept five minerals (Policy 3: 59 of 64)."""
-    data = reference_scenario().model_dump()
-    data["team"].update(scouts=3, excavators=3, haulers=3)
-    m = Mission(parse_scenario(data), 4, "nearest", planner="straight")
-    watch = InvariantWatch(m)
-    for t, name, mode in ((798.0, "scout-3", "abrupt"), (832.0, "excavator-2", "graceful")):
-        m.advance(t)
-        m.disable_robot(name, mode)
-    metrics = m.run()
-    watch.final()
+    m, metrics = _three_of_each_losing(
+        4, "nearest", ((798.0, "scout-3", "abrupt"), (832.0, "excavator-2", "graceful"))
+    )
     [released] = [e for e in events_of(m, "task_ended") if e["outcome"] == "released"]
     again = [
         e
@@ -470,15 +476,9 @@ def test_a_leaving_excavator_whose_hauler_falls_offers_the_mineral_again_and_lea
     must still find the hauler it waits on down: it did not (only a participating robot
     declared a peer failed), waited for ever, and being alive kept its peers from adopting
     another excavator's duties (62 of 64)."""
-    data = reference_scenario().model_dump()
-    data["team"].update(scouts=3, excavators=3, haulers=3)
-    m = Mission(parse_scenario(data), 77, "nearest", planner="straight")
-    watch = InvariantWatch(m)
-    for t, name, mode in ((1330.0, "hauler-1", "abrupt"), (1365.0, "excavator-2", "graceful")):
-        m.advance(t)
-        m.disable_robot(name, mode)
-    metrics = m.run()
-    watch.final()
+    m, metrics = _three_of_each_losing(
+        77, "nearest", ((1330.0, "hauler-1", "abrupt"), (1365.0, "excavator-2", "graceful"))
+    )
     assert [e["robot"] for e in events_of(m, "robot_quiet")] == ["excavator-2"]
     assert m.status == "completed" and metrics["minerals_delivered"] == 64
 
@@ -490,15 +490,9 @@ def test_a_partners_load_is_offered_again_when_it_and_its_excavator_fall(policy:
     excavator-1 falls before it notices. Its adopter reads what the partner's last heartbeat
     says it carried and offers it again along its route; without it the mineral stayed on the
     ground (63 of 64)."""
-    data = reference_scenario().model_dump()
-    data["team"].update(scouts=3, excavators=3, haulers=3)
-    m = Mission(parse_scenario(data), 77, policy, planner="straight")
-    watch = InvariantWatch(m)
-    for t, name, mode in ((1330.0, "hauler-1", "abrupt"), (1369.0, "excavator-1", "abrupt")):
-        m.advance(t)
-        m.disable_robot(name, mode)
-    metrics = m.run()
-    watch.final()
+    m, metrics = _three_of_each_losing(
+        77, policy, ((1330.0, "hauler-1", "abrupt"), (1369.0, "excavator-1", "abrupt"))
+    )
     again = [
         e
         for e in events_of(m, "auction_opened")
@@ -512,13 +506,9 @@ def test_a_partners_load_delivered_before_it_went_quiet_is_not_offered_again() -
     """The same rule must not trust a heartbeat older than the partner's TaskDone: excavator-2
     leaves, its partner hauler-2 delivers and leaves before it says so in a heartbeat, and the
     adopter offered that delivered mineral again (attrition seed 77, Policy 2)."""
-    data = reference_scenario().model_dump()
-    data["team"].update(scouts=3, excavators=3, haulers=3)
-    m = Mission(parse_scenario(data), 77, "coalition", planner="straight")
-    for t, name, mode in ((1365.0, "excavator-2", "graceful"), (1367.0, "hauler-2", "graceful")):
-        m.advance(t)
-        m.disable_robot(name, mode)
-    metrics = m.run()
+    m, metrics = _three_of_each_losing(
+        77, "coalition", ((1365.0, "excavator-2", "graceful"), (1367.0, "hauler-2", "graceful"))
+    )
     delivered = {e["task_id"] for e in events_of(m, "task_ended") if e["outcome"] == "done"}
     offered_after = [
         e["task_id"]
@@ -535,15 +525,9 @@ def test_a_partners_load_taken_after_its_excavator_left_is_offered_again_when_it
     hauler-1 then falls with the load. excavator-2 reads the fallen partner's last heartbeat
     when it finds it down and offers the load again; without it the mineral lay on the road
     (63 of 64)."""
-    data = reference_scenario().model_dump()
-    data["team"].update(scouts=3, excavators=3, haulers=3)
-    m = Mission(parse_scenario(data), 172, "coalition", planner="straight")
-    watch = InvariantWatch(m)
-    for t, name, mode in ((1151.0, "excavator-1", "graceful"), (1283.0, "hauler-1", "abrupt")):
-        m.advance(t)
-        m.disable_robot(name, mode)
-    metrics = m.run()
-    watch.final()
+    m, metrics = _three_of_each_losing(
+        172, "coalition", ((1151.0, "excavator-1", "graceful"), (1283.0, "hauler-1", "abrupt"))
+    )
     again = [
         e["auctioneer"]
         for e in events_of(m, "auction_opened")
