@@ -22,12 +22,13 @@ from concurrent.futures import ProcessPoolExecutor
 from experiments.attrition import AttritionRun
 
 
-def one(args: tuple[int, str, str]) -> AttritionRun:
+def one(args: tuple[int, str, str, int]) -> AttritionRun:
     from engine import reference_scenario
     from experiments.attrition import attrition_mission, attrition_team
 
-    seed, policy, planner = args
-    return attrition_mission(attrition_team(reference_scenario()), seed, policy, planner=planner)
+    seed, policy, planner, each = args
+    team = attrition_team(reference_scenario(), each)
+    return attrition_mission(team, seed, policy, planner=planner)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,14 +39,24 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--first", type=int, default=0, help="the first seed")
     p.add_argument("--policies", default=",".join(sorted(POLICIES)))
     p.add_argument("--planner", choices=["straight", "ompl", "exact"], default="straight")
+    p.add_argument("--each", type=int, default=3, help="robots of each type (all but one fail)")
     o = p.parse_args(argv)
     policies = [s.strip() for s in o.policies.split(",") if s.strip()]
     unknown = [x for x in policies if x not in POLICIES]
-    if o.seeds < 1 or unknown:
-        what = f"unknown policies {unknown}" if unknown else "--seeds must be at least 1"
-        print(f"attrition_bench: {what}", file=sys.stderr)
+    problem = (
+        f"unknown policies {unknown}"
+        if unknown
+        else "--seeds must be at least 1"
+        if o.seeds < 1
+        else "--each must be between 2 and 20"
+        if not 2 <= o.each <= 20
+        else None
+    )
+    if problem is not None:
+        print(f"attrition_bench: {problem}", file=sys.stderr)
         return 2
-    jobs = [(s, pol, o.planner) for pol in policies for s in range(o.first, o.first + o.seeds)]
+    seeds = range(o.first, o.first + o.seeds)
+    jobs = [(s, pol, o.planner, o.each) for pol in policies for s in seeds]
     start = time.perf_counter()
     stalled: Counter[str] = Counter()
     with ProcessPoolExecutor() as pool:
