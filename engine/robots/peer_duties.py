@@ -120,6 +120,15 @@ class PeerDuties:
                 )
         return found
 
+    def with_its_adoptions(self, peer: str) -> tuple[str, ...]:
+        """A failed peer and the peers it had adopted that are still down, as its last
+        heartbeat I heard said: a partner's load it inherited and fell before it noticed is
+        mine too, if I adopt it (attrition with four of each, seed 52)."""
+        recovery = self.recovery
+        hb = recovery.ctx.liveness.last_heartbeat(recovery.name, peer)
+        adopted = () if hb is None else hb.adopted
+        return (peer, *(q for q in adopted if not recovery.peer_alive(q)))
+
     def hand_over_unheard(self, peer: str) -> dict[str, Allocation]:
         """What `peer`'s coalition partner carries for it, as far as its last heartbeat I
         heard says, if no auction I heard of allocated it: Policy 2's excavator loads its

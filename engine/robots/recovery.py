@@ -16,7 +16,7 @@ from typing import Any
 
 import simpy
 
-from engine.auction_rules import AUCTION_KINDS, Duties
+from engine.auction_rules import AUCTION_KINDS, Allocation, Duties
 from engine.messages import Heartbeat, Hello, Holding, Leaving, Probe, Revoke, Takeover, TaskDone
 from engine.policies import coalition_partner
 from engine.robots.peer_duties import PeerDuties
@@ -206,7 +206,8 @@ class Recovery:
         if self.robot.rtype != "excavator":
             return  # (the partner rule is symmetric: a hauler's adopted peers have partners too)
         house = self.robot.house
-        for peer in [p for p in self.adopted if coalition_partner(p) == hauler]:
+        kin = [q for p in self.adopted for q in self.peer_duties.with_its_adoptions(p)]
+        for peer in [q for q in kin if coalition_partner(q) == hauler]:
             for tid, alloc in self.peer_duties.hand_over_unheard(peer).items():
                 if not house.watching(tid) and not house.is_open(tid):
                     house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, hauler))
@@ -249,7 +250,10 @@ class Recovery:
         # an auction whose Close I missed is not open: its task is watched, or offered again
         # from where its holder was last heard (not from the auction's own place)
         closed = self.peer_duties.closed_unheard(peer)
-        handed = self.peer_duties.hand_over_unheard(peer) if kind == "excavator_hauler" else {}
+        handed: dict[str, Allocation] = {}
+        if kind == "excavator_hauler":
+            for q in self.peer_duties.with_its_adoptions(peer):
+                handed.update(self.peer_duties.hand_over_unheard(q))
         for info in self.peer_duties.peer_open.pop(peer, {}).values():
             rec = house.open(
                 info.task_type,

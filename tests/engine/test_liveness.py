@@ -227,6 +227,16 @@ def test_the_survivors_of_attrition_finish_the_mission(seed: int, policy: str) -
     assert run.finished, (run.status, run.delivered, run.failures)
 
 
+def test_the_survivors_of_attrition_in_a_team_of_four_finish_the_mission() -> None:
+    """Four of each type, seed 52, Policy 2: excavator-2 leaves just after loading its partner;
+    excavator-1 adopts it and falls before it finds that partner down with the load. Its
+    adopter reads the partners of the peers excavator-1 had adopted too (its heartbeat's
+    `adopted`); without it the load lay on the road (63 of 64)."""
+    team = attrition_team(reference_scenario(), 4)
+    run = attrition_mission(team, 52, "coalition", watch=InvariantWatch)
+    assert run.finished, (run.status, run.delivered, run.failures)
+
+
 # The same on an unreliable bus: the operator's faults and the bus's at once. A lossy bus
 # lets a task be held twice for a while (a Holding or a Revoke lost: docs/faults.md), so the
 # watch here is the one that must never break: every mineral is somewhere, at every event.
