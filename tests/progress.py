@@ -24,6 +24,10 @@ START_S = 300.0
 #: A test's HTTP client gives up on one request after this long: a backstop for a server that
 #: hangs, far past a busy server's slowest answer.
 REQUEST_S = 120.0
+#: A browser test's page shows what the test waits for within this long, or an action (a
+#: click) finds its element: Playwright's own defaults (5 s for `expect`, 30 s for actions)
+#: are deadlines a loaded machine misses while the page is only slower.
+UI_S = 90.0
 
 
 class Progress:

@@ -20,9 +20,10 @@ from typing import Any
 
 import httpx
 import pytest
+from playwright.sync_api import BrowserContext, expect
 
 from tests.field_worlds import end_field_worlds
-from tests.progress import REQUEST_S, START_S
+from tests.progress import REQUEST_S, START_S, UI_S
 
 CHROMIUM = Path(os.environ.get("REGOLITH_CHROMIUM", "/usr/bin/chromium"))  # Debian's
 TOKEN = "e2e-operator-token-0123456789"
@@ -192,6 +193,19 @@ def start_mission(api: httpx.Client) -> Iterator[Callable[..., dict[str, Any]]]:
     yield start
     for mid in started:
         api.post(f"/missions/{mid}/stop")  # 409 once it has ended by itself: fine
+
+
+@pytest.fixture(scope="session", autouse=True)
+def patient_expect() -> None:
+    """Every `expect(...)` waits up to `UI_S` unless it says otherwise."""
+    expect.set_options(timeout=UI_S * 1000)
+
+
+@pytest.fixture
+def context(context: BrowserContext) -> BrowserContext:
+    """Every page action and wait gives up only after `UI_S`."""
+    context.set_default_timeout(UI_S * 1000)
+    return context
 
 
 @pytest.fixture

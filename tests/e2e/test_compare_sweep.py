@@ -41,16 +41,14 @@ def test_start_a_sweep_and_compare_its_results(
     )
     expect(progress).to_have_attribute("data-status", "completed")
     sid = progress.get_attribute("data-sweep")
-    expect(page.locator("#compare-n")).to_have_text(
-        f"· sweep {sid} · reference · 2 runs", timeout=10_000
-    )
+    expect(page.locator("#compare-n")).to_have_text(f"· sweep {sid} · reference · 2 runs")
     head = page.locator("#compare-summary thead th")
     expect(head).to_have_text(["mean ± 95% CI", "1 · FCFS", "2 · Coalitions"])
     expect(page.locator("#cmp-makespan svg")).to_be_visible()
 
     makespan = page.locator('#sweep-figures figure[data-figure="makespan"]')
     expect(makespan).to_be_visible()
-    expect(makespan.locator("img")).to_have_attribute("data-loaded", "true", timeout=10_000)
+    expect(makespan.locator("img")).to_have_attribute("data-loaded", "true")
     assert makespan.locator("img").evaluate("img => img.naturalWidth") > 100
     expect(makespan.locator("p.hint").first).to_contain_text("makespan")
     expect(page.locator("#sweep-select")).to_have_value(str(sid))

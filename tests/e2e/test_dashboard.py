@@ -13,7 +13,7 @@ import httpx
 from playwright.sync_api import Page, expect
 
 from tests.e2e.conftest import TOKEN, ConsoleLog
-from tests.progress import Progress, wait_progress
+from tests.progress import UI_S, Progress, wait_progress
 
 Start = Callable[..., dict[str, Any]]
 
@@ -23,7 +23,7 @@ WORK = """(() => { const r = window.__regolith || {}; const c = r.lastCounters |
     return [c.sites_found, c.minerals_delivered, c.auctions, c.bids, r.status]; })()"""
 
 
-def wait_for(page: Page, js: str, timeout: float = 20, progress: str | None = None) -> Any:
+def wait_for(page: Page, js: str, timeout: float = UI_S, progress: str | None = None) -> Any:
     """Poll a JS expression until it is truthy (page.wait_for_function would need unsafe-eval,
     which the app's Content-Security-Policy rightly forbids). With `progress` (a JS
     expression, e.g. `WORK`), wait as long as its value keeps changing and fail only after
@@ -50,14 +50,14 @@ def wait_for(page: Page, js: str, timeout: float = 20, progress: str | None = No
 def open_live(page: Page, mission_id: int) -> None:
     """Open the live view and wait for the stream's snapshot and a few frames."""
     page.goto(f"/#/live/{mission_id}")
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12", timeout=20_000)
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")
     wait_for(page, "window.__regolith && window.__regolith.frames >= 3")
 
 
 def next_robot_poll(page: Page, mission_id: int) -> None:
     """Wait for the live view's next robot-list poll (once a second) to be answered."""
     path = f"/api/missions/{mission_id}/robots"
-    page.wait_for_event("response", lambda r: r.url.endswith(path), timeout=10_000)
+    page.wait_for_event("response", lambda r: r.url.endswith(path))
 
 
 def free_point(page: Page) -> tuple[float, float]:
@@ -102,8 +102,8 @@ def test_start_mission_shows_twelve_moving_robots(operator: Page) -> None:
     form.get_by_label("Seed").fill("3")
     form.get_by_label("Speed").select_option("10")
     form.get_by_role("button", name="Start mission").click()
-    expect(page).to_have_url(re.compile(r"#/live/\d+$"), timeout=10_000)
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12", timeout=20_000)
+    expect(page).to_have_url(re.compile(r"#/live/\d+$"))
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")
     expect(page.locator("#robot-table tbody tr[data-robot]")).to_have_count(12)
     wait_for(page, "window.__regolith.frames >= 3")
     before = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
@@ -147,7 +147,7 @@ def test_fail_robot_shows_failed_and_reauctions_its_task(
     before = set(cards.evaluate_all("els => els.map(e => e.dataset.auctionId)"))
     row = page.locator(f'#robot-table tr[data-robot="{name}"]')
     row.get_by_role("button", name=re.compile("^Fail")).click()
-    expect(row).to_have_attribute("data-state", "failed", timeout=10_000)
+    expect(row).to_have_attribute("data-state", "failed")
     page.locator('[data-speed="100"]').click()  # resume, fast: detection takes 30 s of sim time
     # the failure is noticed (missed heartbeats) and its task is auctioned again
     watch = Progress(f"a new auction for {task} after {name} failed", 60)
@@ -182,7 +182,7 @@ def test_click_on_map_injects_a_task_whose_auction_appears(
     expect(form).to_be_visible()
     form.get_by_role("button", name="Inject task").click()
     card = page.locator('#auction-feed li[data-kind="operator"]')
-    expect(card.first).to_be_visible(timeout=15_000)
+    expect(card.first).to_be_visible()
     loc = [float(v) for v in card.first.get_attribute("data-location").split(",")]
     # the form rounds to 0.1 m; the engine snaps a task within the scan radius of a known site
     assert math.dist(loc, (x, y)) < 2.6, (loc, (x, y))
@@ -236,13 +236,13 @@ def test_add_fail_and_enable_robots(operator: Page, start_mission: Start) -> Non
     open_live(page, mission["id"])
     page.locator("#add-robot-type").select_option("hauler")
     page.get_by_role("button", name="Add robot").click()
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=10_000)
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "13")
     row = page.locator('#robot-table tr[data-robot="hauler-7"]')
     expect(row).to_be_visible()
     row.get_by_role("button", name=re.compile("^Fail")).click()
-    expect(row).to_have_attribute("data-state", "failed", timeout=10_000)
+    expect(row).to_have_attribute("data-state", "failed")
     row.get_by_role("button", name=re.compile("^Enable")).click()
-    expect(row).not_to_have_attribute("data-state", re.compile("disabled|failed"), timeout=10_000)
+    expect(row).not_to_have_attribute("data-state", re.compile("disabled|failed"))
     expect(row.get_by_role("button", name=re.compile("^Disable"))).to_be_enabled()
 
 
@@ -252,7 +252,7 @@ def test_graceful_disable_shows_disabled(operator: Page, start_mission: Start) -
     open_live(page, mission["id"])
     row = page.locator('#robot-table tr[data-robot="hauler-6"]')
     row.get_by_role("button", name=re.compile("^Disable")).click()
-    expect(row).to_have_attribute("data-state", "disabled", timeout=10_000)
+    expect(row).to_have_attribute("data-state", "disabled")
 
 
 SCENARIO_TOML = """\
@@ -285,10 +285,10 @@ def test_start_mission_from_an_uploaded_toml_scenario(
     assert _choose(page, path).startswith("e2e-small: 60×60 m, 4 sites, team 1/2/3")
     form.get_by_label("Seed").fill("9")
     form.get_by_role("button", name="Start mission").click()
-    expect(page).to_have_url(re.compile(r"#/live/\d+$"), timeout=10_000)
+    expect(page).to_have_url(re.compile(r"#/live/\d+$"))
     mission_id = int(page.url.rsplit("/", 1)[1])
     try:
-        expect(page.locator("#map")).to_have_attribute("data-robot-count", "6", timeout=20_000)
+        expect(page.locator("#map")).to_have_attribute("data-robot-count", "6")
         mission = api.get(f"/missions/{mission_id}").json()
         assert mission["scenario_name"] == "e2e-small"
         assert mission["scenario"]["team"] == {"scouts": 1, "excavators": 2, "haulers": 3}

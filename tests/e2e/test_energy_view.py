@@ -30,7 +30,7 @@ def test_battery_bars_and_the_charge_column_show_the_streamed_charge(
     mission = start_mission(seed=3, speed=200, planner="straight", scenario=scenario)
     mid = mission["id"]
     page.goto(f"/#/live/{mid}")
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12", timeout=30_000)
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")
     # run until some battery is below half (the batteries are small: minutes of work)
     wait_for(
         page,

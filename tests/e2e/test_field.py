@@ -63,7 +63,7 @@ def _field_mission_on_the_dashboard(
     res = api.post(f"/missions/{mid}/robots", json={"type": "excavator"})
     assert res.status_code in (200, 201), res.text
     newcomer = res.json()["name"]
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "13", timeout=30_000)
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "13")
     wait_for(page, "window.__regolith.lastCounters.minerals_delivered >= 3", STALL_S, WORK)
     now = {r["name"]: (r["x"], r["y"]) for r in page.evaluate("window.__regolith.robots")}
     assert sum(now[n] != first[n] for n in first) >= 6  # the robots move on the map
@@ -133,7 +133,6 @@ def _field_mission_on_the_dashboard(
     wait_for(
         page,
         f"window.__regolith.robots.some(r => r.name === '{victim}' && r.alive === false)",
-        timeout=30,
     )
     # an operator task, as in a simulated mission: checked (422 naming the field), then
     # auctioned by the operator's console (its own agent process), asked over the wire
@@ -175,7 +174,7 @@ def _field_mission_on_the_dashboard(
     compact = compact_scenario()
     assert m["minerals_delivered"] == m["minerals_total"] == compact.minerals, m
     assert m["sites_found"] == m["sites_total"] == compact.sites, m
-    wait_for(page, "window.__regolith.final", timeout=30)
+    wait_for(page, "window.__regolith.final")
     # the counters are the final ones (the stored metrics)
     counters = page.evaluate("window.__regolith.lastCounters")
     assert counters["minerals_delivered"] == m["minerals_delivered"], (counters, m)

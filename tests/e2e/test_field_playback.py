@@ -84,7 +84,7 @@ def test_scrub_a_stopped_field_run(
     page.goto(f"/#/live/{mid}")
     wait_for(page, "window.__regolith && window.__regolith.final")
     timeline = page.locator("#timeline")
-    expect(timeline).to_have_attribute("data-end", str(end), timeout=20_000)
+    expect(timeline).to_have_attribute("data-end", str(end))
     expect(timeline).to_have_attribute("data-source", "poses")
     expect(timeline).not_to_have_attribute("data-disabled", "true")
     expect(page.locator("#tl-source")).to_be_visible()

@@ -50,7 +50,7 @@ def test_a_scaled_mission_on_deltas_shows_the_streamed_state_and_its_stored_end(
     mission = start_mission(seed=2, speed=60, planner="straight", scenario=scenario)
     mid = mission["id"]
     page.goto(f"/#/live/{mid}")
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "120", timeout=30_000)
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "120")
     wait_for(page, "window.__regolith.frames >= 30", 60, "window.__regolith.frames")
     api.post(f"/missions/{mid}/pause").raise_for_status()
     expect(page.locator("#live-status")).to_have_text("paused")
@@ -83,8 +83,8 @@ def test_a_scaled_mission_on_deltas_shows_the_streamed_state_and_its_stored_end(
     before = page.evaluate("window.__regolith.stream.seq")
     wait_for(page, f"window.__regolith.stream.seq > {before + 10}", 60, "window.__regolith.t")
     api.post(f"/missions/{mid}/stop").raise_for_status()
-    expect(page.locator("#live-status")).to_have_text("stopped", timeout=30_000)
-    wait_for(page, "window.__regolith.final === true", timeout=60)
+    expect(page.locator("#live-status")).to_have_text("stopped")
+    wait_for(page, "window.__regolith.final === true")
     stored = {r["name"]: r for r in api.get(f"/missions/{mid}/robots").json()}
     end = page.evaluate("window.__regolith.stream")
     assert end["status"] == api.get(f"/missions/{mid}").json()["status"]

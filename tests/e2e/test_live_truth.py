@@ -26,7 +26,7 @@ def _all_events(api: Any, mission_id: int, kind: str) -> list[dict[str, Any]]:
 
 def _expect_stored_ending(page: Page, api: Any, mission_id: int) -> None:
     """Every figure the view shows is the stored one, to the last bit."""
-    wait_for(page, "window.__regolith.final === true", timeout=30)
+    wait_for(page, "window.__regolith.final === true")
     record = api.get(f"/missions/{mission_id}").json()
     metrics = record["metrics"]
     robots = {r["name"]: r for r in api.get(f"/missions/{mission_id}/robots").json()}

@@ -52,7 +52,7 @@ def test_scrub_a_finished_mission(page: Page, console: ConsoleLog, api: httpx.Cl
 
     page.goto(f"/#/live/{mid}")
     timeline = page.locator("#timeline")
-    expect(timeline).to_have_attribute("data-end", str(end), timeout=20_000)
+    expect(timeline).to_have_attribute("data-end", str(end))
     expect(timeline).to_have_attribute("data-markers", str(len(sites) + 5))
     for kind, n in [("failure", 1), ("operator", 3), ("policy", 1), ("site", len(sites))]:
         expect(page.locator(f".tl-mark[data-kind={kind}]")).to_have_count(n)

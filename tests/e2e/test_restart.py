@@ -67,7 +67,7 @@ def test_restart_shows_interrupted_and_resume_continues(operator: Page, own_serv
 
     assert _status(srv, mid) == "interrupted"
     status = page.locator("#live-status")
-    expect(status).to_have_text("interrupted", timeout=30_000)
+    expect(status).to_have_text("interrupted")
     expect(status).to_have_attribute("data-status", "interrupted")
     expect(page.locator("#live-conn")).to_have_attribute("data-conn", "open")
     # the snapshot's stored engine state says "running" and is applied as a frame right
@@ -86,10 +86,10 @@ def test_restart_shows_interrupted_and_resume_continues(operator: Page, own_serv
 
     resume.click()
 
-    expect(status).to_have_text("running", timeout=60_000)  # replay takes a moment
+    expect(status).to_have_text("running")  # replay takes a moment
     expect(resume).to_be_hidden()
     expect(notice).to_be_hidden()
-    wait_for(page, f"window.__regolith.t > {t0} + 1", timeout=30)
+    wait_for(page, f"window.__regolith.t > {t0} + 1")
     _expect_live_only_controls(page, enabled=True)
     assert _status(srv, mid) == "running"
     # and the controls answer again: pause through the toolbar
@@ -140,7 +140,7 @@ def test_an_ended_mission_shows_its_recorded_status(
     done = start_mission(seed=8)
     assert api.post(f"/missions/{done['id']}/stop").status_code == 200
     page.goto(f"/#/live/{done['id']}")
-    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12", timeout=20_000)
+    expect(page.locator("#map")).to_have_attribute("data-robot-count", "12")
     expect(page.locator("#live-status")).to_have_text("stopped")
     expect(page.locator("#live-notice")).to_contain_text("Ended (stopped)")
     expect(page.locator("#resume-button")).to_be_hidden()

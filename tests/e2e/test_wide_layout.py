@@ -270,7 +270,6 @@ def test_with_energy_on_the_robot_list_stays_whole_at_1440(
         """[...document.querySelectorAll('#robot-table tr[data-robot]')]
             .filter(tr => tr.dataset.task).length >= 3
           && window.__regolith.stream.robots.some(r => r.charge != null && r.charge < 0.9)""",
-        timeout=60,
     )
     assert api.post(f"/missions/{mid}/pause").status_code == 200
     next_robot_poll(page, mid)
