@@ -15,7 +15,7 @@ import httpx
 
 from engine import Mission, reference_scenario
 from tests.api.conftest import AUTH, TOKEN, all_pages, database_for, run_to_end, wait_for
-from tests.progress import START_S
+from tests.progress import REQUEST_S, START_S
 
 
 def _serve(data: Path, port: int) -> subprocess.Popen[bytes]:
@@ -54,7 +54,7 @@ def test_sigkill_mid_mission_then_resume_equals_an_uninterrupted_run(tmp_path: P
     base_url = f"http://127.0.0.1:{port}"
     proc = _serve(tmp_path, port)
     try:
-        with httpx.Client(base_url=base_url, headers=AUTH, timeout=30) as api:
+        with httpx.Client(base_url=base_url, headers=AUTH, timeout=REQUEST_S) as api:
             mid = api.post("/api/missions", json={"seed": 21, "speed": 300}).json()["id"]
             base = f"/api/missions/{mid}"
             wait_for(lambda: api.get(base).json()["sim_time"] > 200)
@@ -69,7 +69,7 @@ def test_sigkill_mid_mission_then_resume_equals_an_uninterrupted_run(tmp_path: P
 
     proc = _serve(tmp_path, port)
     try:
-        with httpx.Client(base_url=base_url, headers=AUTH, timeout=30) as api:
+        with httpx.Client(base_url=base_url, headers=AUTH, timeout=REQUEST_S) as api:
             assert api.get(base).json()["status"] == "interrupted"
             resumed = api.post(f"{base}/resume")
             assert resumed.status_code == 200, resumed.text

@@ -8,6 +8,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from app.live.hub import CLOSE_BAD_DATA, CLOSE_TOO_BIG, CLOSE_TOO_SLOW, Hub, Viewer, serve_viewer
+from tests.progress import STALL_S
 
 
 class FakeSocket:
@@ -47,7 +48,7 @@ def _run(coro: Any) -> Any:
     """On a thread of its own: under pytest-xdist a worker may have run a Playwright test
     before, whose event loop still runs on the main thread."""
     with ThreadPoolExecutor(1) as pool:
-        return pool.submit(asyncio.run, asyncio.wait_for(coro, timeout=5)).result()
+        return pool.submit(asyncio.run, asyncio.wait_for(coro, timeout=STALL_S)).result()
 
 
 def _drained(viewer: Viewer) -> bool:
@@ -145,7 +146,7 @@ def test_a_viewer_that_stops_reading_is_dropped_and_others_are_not_slowed() -> N
         for i in range(200):
             hub.publish({"type": "event", "n": i})
             await asyncio.sleep(0)
-        await asyncio.wait_for(tasks[0], timeout=2)  # the stuck one is gone
+        await asyncio.wait_for(tasks[0], timeout=STALL_S)  # the stuck one is gone
         await fine.wait_sent(1 + 200)  # the other got its snapshot and every event
         tasks[1].cancel()
         return stuck, fine, hub

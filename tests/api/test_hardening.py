@@ -12,6 +12,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 
 from tests.api.conftest import TOKEN, LiveServer, make_settings, recv
+from tests.progress import REQUEST_S
 
 
 @pytest.fixture
@@ -243,7 +244,7 @@ def test_scenarios_that_cannot_work_are_422_naming_the_reason(
 def _closed_with(ws: ClientConnection) -> int:
     with pytest.raises(ConnectionClosed) as closed:
         while True:  # frames may arrive before the close
-            ws.recv(timeout=10)
+            ws.recv(timeout=REQUEST_S)
     assert closed.value.rcvd is not None
     return closed.value.rcvd.code
 
@@ -278,7 +279,7 @@ def test_a_socket_for_an_impossible_mission_id_closes_with_1008(
 ) -> None:
     """10**30 once raised OverflowError in the database driver, unhandled."""
     with server.ws(mission_id) as ws, pytest.raises(ConnectionClosed) as closed:
-        ws.recv(timeout=10)
+        ws.recv(timeout=REQUEST_S)
     assert closed.value.rcvd is not None and closed.value.rcvd.code == 1008
     assert "mission_id" in closed.value.rcvd.reason
     with server.ws(2**31 - 1) as ws:  # the largest id is merely unknown

@@ -20,6 +20,7 @@ from app.cli import cli
 from app.middleware import mission_of, request_id_of
 from tests.api.conftest import TOKEN
 from tests.api.serve_process import ServeProcess
+from tests.progress import REQUEST_S
 
 Line = dict[str, Any]
 
@@ -62,13 +63,13 @@ def test_serve_logs_json_lines_with_ids_and_never_the_token(tmp_path: Path) -> N
         assert re.fullmatch(r"[0-9a-f]{32}", generated)
         url = f"ws://127.0.0.1:{srv.port}/api/missions/{mid}/live?token={TOKEN}"
         with connect(url, additional_headers={"Authorization": f"Bearer {TOKEN}"}) as ws:
-            assert json.loads(ws.recv(timeout=10))["type"] == "snapshot"
+            assert json.loads(ws.recv(timeout=REQUEST_S))["type"] == "snapshot"
             assert ws.response is not None
             socket_rid = ws.response.headers["x-request-id"]
             ws.send("not json")
             with pytest.raises(ConnectionClosed) as closed:
                 while True:  # a first frame may come before the close
-                    ws.recv(timeout=10)
+                    ws.recv(timeout=REQUEST_S)
             assert closed.value.rcvd is not None and closed.value.rcvd.code == 1003
         r = api.post(f"/api/missions/{mid}/stop", headers={"X-Request-ID": "op-stop"})
         assert r.status_code == 200
@@ -155,9 +156,9 @@ def test_serve_never_logs_an_encoded_query_token_or_a_subprotocol(tmp_path: Path
         base = f"ws://127.0.0.1:{srv.port}/api/missions/{mid}/live"
         for query in (f"?tok%65n={TOKEN}", f"?%74oken={TOKEN}", f"?a=1&tok%2565n={TOKEN}"):
             with connect(base + query) as ws:
-                assert json.loads(ws.recv(timeout=10))["type"] == "snapshot"
+                assert json.loads(ws.recv(timeout=REQUEST_S))["type"] == "snapshot"
         with connect(base, subprotocols=[TOKEN]) as ws:  # type: ignore[list-item]
-            assert json.loads(ws.recv(timeout=10))["type"] == "snapshot"
+            assert json.loads(ws.recv(timeout=REQUEST_S))["type"] == "snapshot"
     lines = _lines(srv.stderr())
     assert not [ln["msg"] for ln in lines if TOKEN in json.dumps(ln)]
     accepted = [ln["msg"] for ln in lines if ln["msg"].endswith("[accepted]")]

@@ -11,7 +11,7 @@ import pytest
 
 from tests.api.conftest import wait_for
 from tests.api.serve_process import ServeProcess
-from tests.progress import START_S
+from tests.progress import STALL_S, START_S
 
 
 def _children() -> dict[int, list[int]]:
@@ -68,7 +68,7 @@ def test_sweep_workers_die_with_a_killed_server(tmp_path: Path) -> None:
         assert all(_running(p) for p in workers_seen)
         os.kill(pid, signal.SIGKILL)
         srv.proc.wait(timeout=30)
-        wait_for(lambda: not any(_running(p) for p in family), timeout=20, every=0.1)
+        wait_for(lambda: not any(_running(p) for p in family), timeout=STALL_S, every=0.1)
 
     with ServeProcess(tmp_path, "--log-level", "warning") as again, again.client() as api:
         assert api.get(f"/api/sweeps/{sid}").json()["status"] == "interrupted"

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from tests.api.conftest import LiveServer, make_settings, run_to_end, wait_for
+from tests.progress import STALL_S
 
 MB = 1024 * 1024
 
@@ -43,7 +44,7 @@ def test_the_wal_is_truncated_during_and_after_a_mission_at_max_speed(tmp_path: 
                 events += page["total"]
             assert events > 10_000
             # idle now: the next checkpoint empties the log
-            wait_for(lambda: _size(wal) == 0, timeout=15)
+            wait_for(lambda: _size(wal) == 0, timeout=STALL_S)
         done.set()
         sampler.join()
         db = _size(tmp_path / "regolith.db")
