@@ -10,33 +10,14 @@ receiver; latency and jitter are drawn once per heartbeat (shared by all its rec
 from __future__ import annotations
 
 from collections import deque
-from typing import Any
 
 import numpy as np
 
 from engine.messages import Heartbeat
 
 HISTORY = 64
-"""Heartbeats kept per sender; a receiver that missed more than this sees none (safe: silent)."""
-
-_FIELDS = tuple(Heartbeat.model_fields)
-_TASKS = _FIELDS.index("tasks")
-Kept = tuple[Any, ...]
-"""A heartbeat in the history: its field values in order, ~150 bytes instead of the ~1,300 a
-validated model adds to its values (its dict and its set of fields set). Scale 100 keeps
-1,201 × 64 of them. Each sender's newest `WHOLE` are kept whole as well: they are the ones
-asked for all the time (every bidder, every period, of every auctioneer:
-`Bidder.missed_closes`; the one before the newest between its sending and its delivery); an
-older one is made a model again when asked for."""
-WHOLE = 2
-
-
-def _keep(hb: Heartbeat) -> Kept:
-    return tuple(hb.__dict__.values())  # a model's dict holds its fields, in order
-
-
-def _model(kept: Kept) -> Heartbeat:
-    return Heartbeat.model_construct(**dict(zip(_FIELDS, kept, strict=True)))
+"""Heartbeats kept per sender; a receiver that missed more than this sees none (safe: silent).
+Scale 100 keeps 1,201 × 64 of them, 144 bytes each (a slotted message)."""
 
 
 class Liveness:
@@ -50,8 +31,7 @@ class Liveness:
         # minimum, so `silent` answers "nobody" without a look at the row in the usual case.
         self.floor = np.full(capacity, np.inf)
         self._floor_min = np.inf
-        self._history: dict[str, deque[tuple[int, Kept]]] = {}
-        self._whole: dict[str, deque[tuple[int, Heartbeat]]] = {}
+        self._history: dict[str, deque[tuple[int, Heartbeat]]] = {}
         self._hb_serial: dict[str, int] = {}
 
     def add(self, name: str) -> int:
@@ -63,7 +43,6 @@ class Liveness:
         self.index[name] = i
         self.names.append(name)
         self._history[name] = deque(maxlen=HISTORY)
-        self._whole[name] = deque(maxlen=WHOLE)
         self._hb_serial[name] = -1
         return i
 
@@ -92,8 +71,7 @@ class Liveness:
         """Store a sent heartbeat; returns its serial for delivery."""
         n = self._hb_serial[hb.sender] + 1
         self._hb_serial[hb.sender] = n
-        self._history[hb.sender].append((n, _keep(hb)))
-        self._whole[hb.sender].append((n, hb))
+        self._history[hb.sender].append((n, hb))
         return n
 
     def deliver_heartbeat(
@@ -162,12 +140,9 @@ class Liveness:
         want = int(self.hb_seen[r, s])
         if want < 0:
             return None
-        for serial, hb in reversed(self._whole[sender]):
+        for serial, hb in reversed(self._history[sender]):
             if serial == want:
                 return hb
-        for serial, kept in reversed(self._history[sender]):
-            if serial == want:
-                return _model(kept)
             if serial < want:
                 break
         return None
@@ -179,9 +154,9 @@ class Liveness:
         if r is None or s is None:
             return None
         want = int(self.hb_seen[r, s])
-        for serial, kept in reversed(self._history[sender]):
-            if serial <= want and task_id in kept[_TASKS]:
-                return self._heartbeat(sender, serial, kept)
+        for serial, hb in reversed(self._history[sender]):
+            if serial <= want and task_id in hb.tasks:
+                return hb
         return None
 
     def holder_of(self, receiver: str, task_id: str, but: str | None = None) -> str | None:
@@ -193,13 +168,6 @@ class Liveness:
             if hb is not None and task_id in hb.tasks and (best is None or hb.t > best[0]):
                 best = (hb.t, sender)
         return None if best is None else best[1]
-
-    def _heartbeat(self, sender: str, serial: int, kept: Kept) -> Heartbeat:
-        """The heartbeat sent: the very model while it is among the newest, else made again."""
-        for n, hb in self._whole[sender]:
-            if n == serial:
-                return hb
-        return _model(kept)
 
     def silent(self, receiver: str, now: float, timeout: float) -> list[str]:
         """Peers this receiver has heard at least once but not within `timeout`."""

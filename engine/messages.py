@@ -1,19 +1,29 @@
-"""The typed, validated messages robots broadcast on the bus (docs/spec.md §5–6, §10)."""
+"""The typed messages robots broadcast on the bus (docs/spec.md §5–6, §10).
+
+Plain frozen, slotted dataclasses: inside the engine every message is made by the engine's own
+code, so checking it again cost a pydantic validation (about 3 µs) on each of the hundred
+thousand messages of a scale-10 mission. Messages from outside are validated where they
+arrive: field mode's `field.wire.decode` runs each through `validate`, with the same
+rules (names 1-64 characters, literal statuses, no unknown fields).
+"""
 
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal
+from dataclasses import dataclass, fields
+from typing import Annotated, Any, Literal, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import ConfigDict, Field, TypeAdapter
 
 Location = tuple[float, float]
 TaskType = Literal["excavate", "transport"]
 Name = Annotated[str, Field(min_length=1, max_length=64)]
+M = TypeVar("M", bound="Message")
 
 
-class Message(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid")
+@dataclass(frozen=True, slots=True, kw_only=True)
+class Message:
+    __pydantic_config__ = ConfigDict(extra="forbid")
     sender: Name
 
     def addressee(self) -> str | None:
@@ -22,11 +32,29 @@ class Message(BaseModel):
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields plus `type`; a -inf utility becomes None (JSON has no infinity)."""
-        d = dict(self.__dict__)
+        d = {name: getattr(self, name) for name in _field_names(type(self))}
         d["type"] = type(self).__name__.lower()
         return d
 
 
+def _field_names(cls: type[Message]) -> tuple[str, ...]:
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
+    return names
+
+
+def validate(cls: type[M], data: Any) -> M:
+    """A message from outside the engine, checked against its type (pydantic's
+    `ValidationError` if it is not one); each type's validator is built once."""
+    adapter = _VALIDATORS.get(cls)
+    if adapter is None:
+        adapter = _VALIDATORS[cls] = TypeAdapter(cls)
+    msg: M = adapter.validate_python(data)
+    return msg
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Announce(Message):
     """[auctioneer, task_type, task_location, status=open]: a task is up for bids."""
 
@@ -41,6 +69,7 @@ class Announce(Message):
     search_path: tuple[Location, ...] = ()
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Bid(Message):
     """[auctioneer, bidder, task_location, utility]; utility -inf means 'busy'."""
 
@@ -55,12 +84,13 @@ class Bid(Message):
         return self.auctioneer
 
     def to_dict(self) -> dict[str, Any]:
-        d = super().to_dict()
+        d = Message.to_dict(self)
         if not math.isfinite(self.utility):
             d["utility"] = None
         return d
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Award(Message):
     """[auctioneer, task_type, task_location, status=open, winner]."""
 
@@ -75,6 +105,7 @@ class Award(Message):
         return self.winner
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Ack(Message):
     """[auctioneer, winner, task_location, accepted|declined]."""
 
@@ -88,6 +119,7 @@ class Ack(Message):
         return self.auctioneer
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Close(Message):
     """[auctioneer, task_type, task_location, status=closed, allocated_to]."""
 
@@ -100,6 +132,7 @@ class Close(Message):
     status: Literal["closed", "cancelled"] = "closed"
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Heartbeat(Message):
     """Liveness and progress: what the robot holds, where it is, how far its scan has come."""
 
@@ -118,6 +151,7 @@ class Heartbeat(Message):
     received: tuple[str, ...] = ()
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class TaskDone(Message):
     """A winner reports its task finished (or void: nothing was there)."""
 
@@ -126,6 +160,7 @@ class TaskDone(Message):
     outcome: Literal["done", "void", "released"] = "done"
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Holding(Message):
     """'I still hold this task': answers a re-auction of a task the sender is working on."""
 
@@ -133,6 +168,7 @@ class Holding(Message):
     auction_id: str
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Probe(Message):
     """'Are you there?' to a silent peer before declaring it failed; answered by a heartbeat."""
 
@@ -142,6 +178,7 @@ class Probe(Message):
         return self.target
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Revoke(Message):
     """The auctioneer takes a task back from a robot: its earlier holder turned out alive."""
 
@@ -152,6 +189,7 @@ class Revoke(Message):
         return self.robot
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Takeover(Message):
     """A robot adopts a silent peer's auctions, monitored tasks and (scouts) its unscanned cells.
     Said again when that peer comes back, so it takes up only what nobody took over."""
@@ -161,12 +199,14 @@ class Takeover(Message):
     tasks: tuple[str, ...] = ()
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Leaving(Message):
     """A robot disabled gracefully says goodbye so peers act without waiting for silence."""
 
     progress: int = 0
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Hello(Message):
     """A robot joins (added or re-enabled); auctioneers re-announce their open auctions.
     A scout with no cells to scan asks for a share of the search (`wants_work`)."""
@@ -175,6 +215,7 @@ class Hello(Message):
     wants_work: bool = False
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class Handoff(Message):
     """A scout gives the far part of its unscanned route to a scout that asked for work.
     The donor keeps it pending until the receiver's heartbeat lists `handoff_id`."""
@@ -184,6 +225,7 @@ class Handoff(Message):
     handoff_id: str
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
 class PolicyChange(Message):
     """The operator switched the allocation policy."""
 
@@ -207,3 +249,6 @@ ALL_MESSAGES: tuple[type[Message], ...] = (
     Handoff,
     PolicyChange,
 )
+
+_FIELD_NAMES: dict[type[Message], tuple[str, ...]] = {}
+_VALIDATORS: dict[type[Message], TypeAdapter[Any]] = {}

@@ -22,7 +22,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from engine.messages import ALL_MESSAGES, Bid, Message
+from engine.messages import ALL_MESSAGES, Bid, Message, validate
 
 log = logging.getLogger("regolith.field.wire")
 
@@ -158,7 +158,7 @@ def decode(payload: bytes, mission: str | None = None) -> Message | None:
     if cls is Bid and body.get("utility", 0.0) is None:
         body["utility"] = -math.inf  # JSON has no infinity: 'busy' travels as null
     try:
-        msg = cls.model_validate(body)
+        msg = validate(cls, body)
     except ValidationError as exc:
         log.debug("dropped an invalid %s from %s: %s", env.type, env.sender, _short(exc))
         return None

@@ -7,6 +7,7 @@ import json
 import logging
 import math
 import time
+from dataclasses import replace
 
 import pytest
 from hypothesis import given
@@ -84,6 +85,16 @@ def _envelope(**over: object) -> bytes:
     return json.dumps(env).encode()
 
 
+def _body(sample: int, **over: object) -> bytes:
+    """An envelope of `SAMPLES[sample]` whose body is changed by `over`: the message's own
+    checks (`engine.messages.validate`), not the envelope's."""
+    msg = SAMPLES[sample]
+    _, payload = encode("m1", msg, 0)
+    env = json.loads(payload)
+    env["body"].update(over)
+    return json.dumps(env).encode()
+
+
 @pytest.mark.parametrize(
     "payload",
     [
@@ -99,7 +110,14 @@ def _envelope(**over: object) -> bytes:
         _envelope(sender="hauler/../x"),
         _envelope(sender="someone-else"),  # body's sender is not the envelope's
         _envelope(body={"sender": "hauler-2"}),  # fields missing
-        _envelope(body={**SAMPLES[3].to_dict(), "outcome": "exploded"}),
+        _body(3, outcome="exploded"),
+        _body(3, note="an unknown field"),
+        _body(0, task_type="teleport"),
+        _body(0, auctioneer="x" * 65),
+        _body(0, location=[1.0]),
+        _body(1, utility="high"),
+        _body(2, tasks="not-a-list"),
+        _body(2, load=[1]),
         _envelope(seq=-1),
     ],
 )
@@ -203,7 +221,7 @@ def test_a_member_speaks_only_for_what_is_its_own() -> None:
     )
     assert may_send(own, "excavator")
     for msg, role in (
-        (own.model_copy(update={"sender": "hauler-7", "auctioneer": "hauler-7"}), "hauler"),
+        (replace(own, sender="hauler-7", auctioneer="hauler-7"), "hauler"),
         (
             Announce(
                 sender="hauler-7",
