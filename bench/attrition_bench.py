@@ -43,18 +43,12 @@ def main(argv: list[str] | None = None) -> int:
     o = p.parse_args(argv)
     policies = [s.strip() for s in o.policies.split(",") if s.strip()]
     unknown = [x for x in policies if x not in POLICIES]
-    problem = (
-        f"unknown policies {unknown}"
-        if unknown
-        else "--seeds must be at least 1"
-        if o.seeds < 1
-        else "--each must be between 2 and 20"
-        if not 2 <= o.each <= 20
-        else None
-    )
-    if problem is not None:
-        print(f"attrition_bench: {problem}", file=sys.stderr)
-        return 2
+    if unknown:
+        p.error(f"unknown policies {unknown}")  # argparse: the message and exit code 2
+    if o.seeds < 1:
+        p.error("--seeds must be at least 1")
+    if not 2 <= o.each <= 20:
+        p.error("--each must be between 2 and 20")
     seeds = range(o.first, o.first + o.seeds)
     jobs = [(s, pol, o.planner, o.each) for pol in policies for s in seeds]
     start = time.perf_counter()
