@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.progress import START_S
+
 BENCH = Path(__file__).parents[2] / "bench" / "attrition_bench.py"
 
 
@@ -20,7 +22,7 @@ BENCH = Path(__file__).parents[2] / "bench" / "attrition_bench.py"
 )
 def test_bad_input_exits_2_naming_it(args: list[str], named: str) -> None:
     out = subprocess.run(
-        [sys.executable, str(BENCH), *args], capture_output=True, text=True, timeout=120
+        [sys.executable, str(BENCH), *args], capture_output=True, text=True, timeout=START_S
     )
     assert out.returncode == 2, out
     assert named in out.stderr and "Traceback" not in out.stderr
