@@ -1,17 +1,17 @@
 """The typed messages robots broadcast on the bus (docs/spec.md §5–6, §10).
 
-Plain frozen, slotted dataclasses: inside the engine every message is made by the engine's own
-code, so checking it again cost a pydantic validation (about 3 µs) on each of the hundred
-thousand messages of a scale-10 mission. Messages from outside are validated where they
-arrive: field mode's `field.wire.decode` runs each through `validate`, with the same
-rules (names 1-64 characters, literal statuses, no unknown fields).
+Plain slotted dataclasses, immutable by type (`message`): inside the engine every message is
+made by the engine's own code, so checking it again cost a pydantic validation (about 3 µs) on
+each of the hundred thousand messages of a scale-10 mission. Messages from outside are
+validated where they arrive: field mode's `field.wire.decode` runs each through `validate`,
+with the same rules (names 1-64 characters, literal statuses, no unknown fields).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Annotated, Any, Literal, TypeVar
+from typing import Annotated, Any, Literal, TypeVar, dataclass_transform
 
 from pydantic import ConfigDict, Field, TypeAdapter
 
@@ -19,9 +19,20 @@ Location = tuple[float, float]
 TaskType = Literal["excavate", "transport"]
 Name = Annotated[str, Field(min_length=1, max_length=64)]
 M = TypeVar("M", bound="Message")
+C = TypeVar("C")
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@dataclass_transform(frozen_default=True, kw_only_default=True)
+def message(cls: type[C]) -> type[C]:
+    """A message class: slotted, keyword-only, and frozen to the type checker (mypy refuses an
+    assignment to a field), not at run time. A frozen dataclass sets each field in `__init__`
+    through `object.__setattr__`: 2 µs more for a heartbeat's 14 fields, 3-4 % of a scale-10
+    mission (docs/benchmarks.md). One message object reaches every receiver, so nothing may
+    change it; hashing by value is kept (`unsafe_hash`: safe, as nothing changes it)."""
+    return dataclass(slots=True, kw_only=True, unsafe_hash=True)(cls)
+
+
+@message
 class Message:
     __pydantic_config__ = ConfigDict(extra="forbid")
     sender: Name
@@ -54,7 +65,7 @@ def validate(cls: type[M], data: Any) -> M:
     return msg
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Announce(Message):
     """[auctioneer, task_type, task_location, status=open]: a task is up for bids."""
 
@@ -69,7 +80,7 @@ class Announce(Message):
     search_path: tuple[Location, ...] = ()
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Bid(Message):
     """[auctioneer, bidder, task_location, utility]; utility -inf means 'busy'."""
 
@@ -90,7 +101,7 @@ class Bid(Message):
         return d
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Award(Message):
     """[auctioneer, task_type, task_location, status=open, winner]."""
 
@@ -105,7 +116,7 @@ class Award(Message):
         return self.winner
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Ack(Message):
     """[auctioneer, winner, task_location, accepted|declined]."""
 
@@ -119,7 +130,7 @@ class Ack(Message):
         return self.auctioneer
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Close(Message):
     """[auctioneer, task_type, task_location, status=closed, allocated_to]."""
 
@@ -132,7 +143,7 @@ class Close(Message):
     status: Literal["closed", "cancelled"] = "closed"
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Heartbeat(Message):
     """Liveness and progress: what the robot holds, where it is, how far its scan has come."""
 
@@ -151,7 +162,7 @@ class Heartbeat(Message):
     received: tuple[str, ...] = ()
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class TaskDone(Message):
     """A winner reports its task finished (or void: nothing was there)."""
 
@@ -160,7 +171,7 @@ class TaskDone(Message):
     outcome: Literal["done", "void", "released"] = "done"
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Holding(Message):
     """'I still hold this task': answers a re-auction of a task the sender is working on."""
 
@@ -168,7 +179,7 @@ class Holding(Message):
     auction_id: str
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Probe(Message):
     """'Are you there?' to a silent peer before declaring it failed; answered by a heartbeat."""
 
@@ -178,7 +189,7 @@ class Probe(Message):
         return self.target
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Revoke(Message):
     """The auctioneer takes a task back from a robot: its earlier holder turned out alive."""
 
@@ -189,7 +200,7 @@ class Revoke(Message):
         return self.robot
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Takeover(Message):
     """A robot adopts a silent peer's auctions, monitored tasks and (scouts) its unscanned cells.
     Said again when that peer comes back, so it takes up only what nobody took over."""
@@ -199,14 +210,14 @@ class Takeover(Message):
     tasks: tuple[str, ...] = ()
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Leaving(Message):
     """A robot disabled gracefully says goodbye so peers act without waiting for silence."""
 
     progress: int = 0
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Hello(Message):
     """A robot joins (added or re-enabled); auctioneers re-announce their open auctions.
     A scout with no cells to scan asks for a share of the search (`wants_work`)."""
@@ -215,7 +226,7 @@ class Hello(Message):
     wants_work: bool = False
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class Handoff(Message):
     """A scout gives the far part of its unscanned route to a scout that asked for work.
     The donor keeps it pending until the receiver's heartbeat lists `handoff_id`."""
@@ -225,7 +236,7 @@ class Handoff(Message):
     handoff_id: str
 
 
-@dataclass(frozen=True, slots=True, kw_only=True)
+@message
 class PolicyChange(Message):
     """The operator switched the allocation policy."""
 
