@@ -102,6 +102,10 @@ class AuctionHouse:
         """Was this task allocated here, its winner not yet done with it?"""
         return task_id in self._watches
 
+    def handles(self, task_id: str) -> bool:
+        """Is this task in this house's hands: auctioned here now, or allocated and watched?"""
+        return task_id in self._watches or self.is_open(task_id)
+
     def winner_of(self, task_id: str) -> str | None:
         """The robot watched for this task, if it was allocated here."""
         alloc = self._watches.get(task_id)
@@ -417,6 +421,6 @@ class AuctionHouse:
                     reauction_of=rec.id,
                 )
         for tid, alloc in duties.watches.items():
-            if tid not in self._watches and not self.is_open(tid):
+            if not self.handles(tid):
                 alloc.since = float(self.ports.env.now)
                 self._watches[tid] = alloc

@@ -150,7 +150,7 @@ class Excavator(Robot):
             if not self.ahead:
                 self.transports.auction_ahead(site)  # more in the pile than expected: one more now
             for i, task_id in enumerate(self.ahead):
-                if not self.house.watching(task_id) and not self.house.is_open(task_id):
+                if not self.house.handles(task_id):
                     # it ended without this pile's mineral (void, lost, or its hauler carried
                     # another): a new transport, under a new id (the old one is over for good)
                     self.ahead[i] = self.transports.new_id("t")

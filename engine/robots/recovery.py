@@ -207,7 +207,7 @@ class Recovery:
         kin = [q for p in self.adopted for q in self.peer_duties.with_its_adoptions(p)]
         for peer in [q for q in kin if coalition_partner(q) == hauler]:
             for tid, alloc in self.peer_duties.hand_over_unheard(peer).items():
-                if not house.watching(tid) and not house.is_open(tid):
+                if not house.handles(tid):
                     house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, hauler))
 
     def _adopt_orphans(self, fallen: str) -> None:
@@ -263,7 +263,7 @@ class Recovery:
             )
             opened.append(rec.id)
             tasks.append(info.task_id)
-        for tid in [t for t in handed if house.watching(t) or house.is_open(t)]:
+        for tid in [t for t in handed if house.handles(t)]:
             del handed[tid]  # a task of mine its partner won in my auction
         allocs = {**handed, **self.peer_duties.forget_peer_allocs(peer), **closed}
         for tid, alloc in allocs.items():
