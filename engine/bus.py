@@ -2,12 +2,12 @@
 
 `Bus` is the interface robots use; `EmbeddedBus` delivers in process through the simulation
 clock, with seeded loss and latency for fault studies. A middleware bus (e.g. Zenoh) would
-implement the same two methods and carry `Message.to_dict()` between processes.
+implement the same methods and carry `Message.to_dict()` between processes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
 import numpy as np
@@ -25,6 +25,15 @@ FirstLook = Callable[[Announce], bool]
 class Bus(Protocol):
     board: RoundBoard | None
     """The ideal bus's board of auction rounds (engine/round_board.py); None elsewhere."""
+
+    @property
+    def closes_reach_all(self) -> bool:
+        """Does every living robot hear every Close the moment it is sent? (Then an auction a
+        robot still knows is open, unless it ended without one: `note_unclosed`.)"""
+        ...
+
+    def note_unclosed(self, auction_ids: Iterable[str]) -> None:
+        """These auctions ended without a Close (their auctioneer failed)."""
 
     def subscribe(
         self,
@@ -69,6 +78,17 @@ class EmbeddedBus:
         self.lost = 0
         self._ideal = config.loss == 0.0 and config.latency_s == 0.0 and config.jitter_s == 0.0
         self.board = RoundBoard() if self._ideal and self.rounds_on_board else None
+        self.unclosed: set[str] = set()  # auctions ended without a Close (`note_unclosed`)
+
+    @property
+    def closes_reach_all(self) -> bool:
+        """On the ideal bus every living robot hears a Close as it is sent (a robot down then
+        forgets all it knew when it comes back), so a bidder looks for missed Closes only among
+        the auctions that ended without one (`Bidder.missed_closes`)."""
+        return self._ideal
+
+    def note_unclosed(self, auction_ids: Iterable[str]) -> None:
+        self.unclosed.update(auction_ids)
 
     def subscribe(
         self,

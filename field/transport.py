@@ -14,7 +14,7 @@ import json
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -200,6 +200,10 @@ class ZenohBus:
     """The engine's `Bus` over Zenoh, for one robot (the agent's)."""
 
     board = None  # each copy really arrives on its own: no board of rounds (the ideal bus's)
+    closes_reach_all = False  # a Close can be lost or late: bidders look for missed ones
+
+    def note_unclosed(self, auction_ids: Iterable[str]) -> None:
+        """Nothing to keep: bidders here look for missed Closes among every auction."""
 
     def __init__(
         self,

@@ -328,7 +328,9 @@ class Robot:
             if p.is_alive and p is not me:
                 p.interrupt("failed")
         self._procs.clear()
-        self.recovery.dormant = self.recovery.dormant.merge(self.house.stop())
+        duties = self.house.stop()
+        self.ctx.bus.note_unclosed(rec.id for rec in duties.auctions)
+        self.recovery.dormant = self.recovery.dormant.merge(duties)
         self.drop_loads()
         self.current = None
         self.queue.clear()

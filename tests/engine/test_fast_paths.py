@@ -21,6 +21,9 @@ injected tasks) and buses (ideal, lossy, late):
 - a robot's auctions in opening order are kept up to date as auctions come and go
   (`KnownAuctions.note_auction`, `KnownAuctions.forget_auction`), not sorted again;
 - the liveness board answers "nobody is silent" from a lower bound (`Liveness.silent`);
+- on the ideal bus a bidder looks for missed Closes only among the auctions that ended
+  without one (`EmbeddedBus.closes_reach_all`, `Bidder.missed_closes`), not among all it
+  knows;
 - the crater index looks only at the buckets a segment passes through (`CraterIndex`).
 """
 
@@ -77,6 +80,10 @@ def _play(scenario: Any, seed: int, policy: str, actions: list[tuple[float, str,
     m = Mission(scenario, seed, policy)
     play_actions(m, actions)
     m.run()
+    return _digest(m)
+
+
+def _digest(m: Mission) -> str:
     h = hashlib.sha256()
     for e in m.events:
         h.update(json.dumps(e.to_dict(), sort_keys=True).encode())
@@ -130,6 +137,7 @@ def _plain_engine() -> Iterator[None]:
         mp.setattr(KnownAuctions, "forget_auction", _plain_forget)
         mp.setattr(Robot, "first_look", lambda self, msg: False)
         mp.setattr(EmbeddedBus, "rounds_on_board", False)
+        mp.setattr(EmbeddedBus, "closes_reach_all", False)
         yield
 
 
@@ -146,6 +154,38 @@ def test_switches_between_policy_2_and_policy_4_change_nothing(seed: int) -> Non
     with _plain_engine():
         plain = _play(scenario, seed, "coalition", plan)
     assert fast == plain
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_an_auctioneer_back_before_it_is_missed_ends_its_auctions_as_the_plain_scan_does(
+    seed: int,
+) -> None:
+    """The one way a bidder on the ideal bus misses a Close: the auctioneer failed with the
+    auction open (no Close is sent) and came back before its peers judged it down, so its
+    new heartbeats no longer list the auction. The bidder that knew it must forget it, as the
+    scan of every auction it knows does."""
+    scenario = small_scenario(team={"scouts": 1, "excavators": 2, "haulers": 1})
+    probe, t = Mission(scenario, seed, "fcfs"), 0.0
+    while not _knows_an_auction_of(probe, "hauler-1", "excavator-1"):
+        t += 1.0
+        probe.advance(t)
+    known = set(probe.ctx.robots["hauler-1"].bidder.biddable)
+    plan = [(t, "fail", "excavator-1"), (t + 5.0, "enable", "excavator-1")]
+    fast = Mission(scenario, seed, "fcfs")
+    play_actions(fast, plan)
+    fast.advance(t + 40.0)  # the hauler's next heartbeats, before any failure verdict
+    hauler = fast.ctx.robots["hauler-1"]
+    ended = known & fast.ctx.bus.unclosed
+    assert ended and not ended & set(hauler.bidder.biddable)
+    fast.run()
+    with _plain_engine():
+        plain = _play(scenario, seed, "fcfs", plan)
+    assert _digest(fast) == plain
+
+
+def _knows_an_auction_of(m: Mission, bidder: str, auctioneer: str) -> bool:
+    known = m.ctx.robots[bidder].bidder.biddable.values()
+    return m.ctx.robots[auctioneer].alive and any(a.auctioneer == auctioneer for a in known)
 
 
 @given(
