@@ -167,6 +167,7 @@ def test_an_auctioneer_back_before_it_is_missed_ends_its_auctions_as_the_plain_s
     scenario = small_scenario(team={"scouts": 1, "excavators": 2, "haulers": 1})
     probe, t = Mission(scenario, seed, "fcfs"), 0.0
     while not _knows_an_auction_of(probe, "hauler-1", "excavator-1"):
+        assert not probe.done, "excavator-1 never had an auction that hauler-1 knew"
         t += 1.0
         probe.advance(t)
     known = set(probe.ctx.robots["hauler-1"].bidder.biddable)
