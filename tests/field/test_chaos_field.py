@@ -285,13 +285,12 @@ class OneHolder:
                     self._fail(
                         f"{task} held by {names}, none of them ever declared failed", names, task
                     )
-                elif min(said_at[n] for n in names) - opened > self.settle_s:
+                elif (known := min(said_at[n] for n in names) - opened) > self.settle_s:
                     # judged at the time of the evidence, not at `now`: the heartbeats come
                     # through this process, which a loaded machine can hold up for a second
                     # of wall time, 50 s of mission time at 50x (CI of 29 Nov: the operator
                     # revoked the winner 22.8 s after opening, but a holder's latest heartbeat
                     # in hand was older than the auction, and the winner's older than that)
-                    known = min(said_at[n] for n in names) - opened
                     self._fail(
                         f"{task} held by {names} {known:.1f} s after its auction opened, by "
                         f"their heartbeats, while one of them held it (settled within "
