@@ -13,6 +13,7 @@ from typing import Any
 import httpx
 import pytest
 from playwright.sync_api import Page, expect
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 from engine import load_scenario
 from tests.e2e.conftest import ConsoleLog
@@ -95,19 +96,29 @@ def test_a_finished_mission_shows_its_whole_map_on_load(
     page.set_viewport_size(WIDE)
     page.goto(f"/#/live/{finished['id']}")
     wait_for(page, "window.__regolith.final")
-    page.wait_for_timeout(300)  # the layout settles (notice, timeline): the map must follow
-    canvas = page.locator("#map").bounding_box()
-    assert canvas is not None
-    world = page.evaluate("window.__regolith.map")
-    corners = [(0, 0), (world["width"], 0), (0, world["height"]), (world["width"], world["height"])]
-    for x, y in [*corners, *((s["x"], s["y"]) for s in world["sites"])]:
-        px, py = page.evaluate(f"window.__regolith.pagePoint({x}, {y})")
-        assert canvas["x"] <= px <= canvas["x"] + canvas["width"], (x, y, px, canvas)
-        assert canvas["y"] <= py <= canvas["y"] + canvas["height"], (x, y, py, canvas)
-    for label in page.evaluate("window.__regolith.drawn.labels"):  # (canvas pixels)
-        left, top, right, bottom = label["box"]
-        assert left >= 0 and top >= 0, label
-        assert right <= canvas["width"] and bottom <= canvas["height"], label
+    # the layout settles after load (a notice, the timeline) and the map must follow it: wait
+    # until every corner, site and label lies inside the canvas, measured in one go
+    misplaced = """(() => {
+        const r = window.__regolith, world = r.map, c = document.querySelector('#map');
+        const box = c.getBoundingClientRect(), out = [];
+        const pts = [[0, 0], [world.width, 0], [0, world.height], [world.width, world.height],
+                     ...world.sites.map(s => [s.x, s.y])];
+        for (const [x, y] of pts) {
+            const [px, py] = r.pagePoint(x, y);
+            if (px < box.left || px > box.right || py < box.top || py > box.bottom)
+                out.push({x, y, px, py});
+        }
+        for (const l of r.drawn.labels) {  // (canvas pixels)
+            const [left, top, right, bottom] = l.box;
+            if (left < 0 || top < 0 || right > box.width || bottom > box.height) out.push(l);
+        }
+        return out; })()"""
+    try:
+        page.wait_for_function(
+            f"() => {misplaced}.length === 0"
+        )  # (a function: the CSP forbids eval)
+    except PlaywrightTimeout:
+        pytest.fail(f"parts of the map lie outside its canvas: {page.evaluate(misplaced)}")
 
 
 def test_the_scrubber_keeps_its_width_under_the_pointer(
@@ -179,9 +190,15 @@ def test_the_sweep_panel_holds_its_form_and_says_when_it_builds_figures(
     form.get_by_role("button", name="Start sweep").click()
     progress = page.locator("#sweep-progress")
     expect(progress).to_be_visible()
-    panel = page.locator("#sweep-panel").bounding_box()
-    assert _inside(form.bounding_box(), panel), "the sweep form spills out of its panel"
-    assert _inside(progress.bounding_box(), panel), "the progress bar spills out of its panel"
+    # measured in one go in the page: the list of sweeps above the form may grow between
+    # two look-ups and move the progress bar down after the panel was measured
+    form_box, progress_box, panel = page.evaluate(
+        """['#sweep-form', '#sweep-progress', '#sweep-panel'].map(s => {
+            const b = document.querySelector(s).getBoundingClientRect();
+            return {x: b.x, y: b.y, width: b.width, height: b.height}; })"""
+    )
+    assert _inside(form_box, panel), "the sweep form spills out of its panel"
+    assert _inside(progress_box, panel), "the progress bar spills out of its panel"
     expect(progress).to_have_attribute("data-status", "completed", timeout=120_000)
     phases = page.evaluate("window.__phases")
     building = [text for phase, text in phases if phase == "figures"]
