@@ -3,17 +3,18 @@
 `AuctionHouse` is the auctioneer role any robot (or the operator) plays: it announces,
 collects bids for the bid window, awards the best finite bid, moves to the next bidder on a
 decline or a silent winner, re-announces after the retry interval when nobody can take the
-task, and after the close watches the winner until it reports the task done — re-auctioning
-it if the winner fails, releases it or drops it. It owns its open auctions and its watches
-(the allocations); its robot asks it through methods (`is_open`, `watching`, `watch`,
-`check_winners`, `winner_down`, `task_done`, `holder_says`, …) and tells it what it hears.
-The records it keeps and the decisions it applies are the pure `engine.auction_rules`.
+task, and after the close hands the allocation to its `watches` (`engine.watches`), which
+watch the winner until it reports the task done — the house re-auctions it (`reoffer`) if the
+winner fails, releases it or drops it. It owns its open auctions and its watches; its robot
+asks it through methods (`is_open`, `handles`, `task_done`, `holder_says`, …) and tells it
+what it hears. The records it keeps and the decisions it applies are the pure
+`engine.auction_rules`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any, Literal
 
 import simpy
@@ -35,10 +36,10 @@ from engine.messages import (
     Close,
     Heartbeat,
     Location,
-    Revoke,
     TaskDone,
     TaskType,
 )
+from engine.watches import Watches
 
 
 class _Live:
@@ -81,7 +82,7 @@ class AuctionHouse:
         self._holders_carry = holders_carry
         self._open: dict[str, AuctionRecord] = {}
         self._live: dict[str, _Live] = {}
-        self._watches: dict[str, Allocation] = {}
+        self.watches = Watches(owner, ports, self.reoffer)
 
     # --- what it holds, asked ------------------------------------------------------------
     def open_ids(self) -> tuple[str, ...]:
@@ -98,25 +99,9 @@ class AuctionHouse:
         """Is an auction for this task open here?"""
         return any(r.task_id == task_id for r in self._open.values())
 
-    def watching(self, task_id: str) -> bool:
-        """Was this task allocated here, its winner not yet done with it?"""
-        return task_id in self._watches
-
     def handles(self, task_id: str) -> bool:
         """Is this task in this house's hands: auctioned here now, or allocated and watched?"""
-        return task_id in self._watches or self.is_open(task_id)
-
-    def winner_of(self, task_id: str) -> str | None:
-        """The robot watched for this task, if it was allocated here."""
-        alloc = self._watches.get(task_id)
-        return None if alloc is None else alloc.winner
-
-    def watches(self) -> Iterator[Allocation]:
-        return iter(list(self._watches.values()))
-
-    def watch(self, alloc: Allocation) -> None:
-        """Watch a task allocated outside an auction (a hand-over, an adopted watch)."""
-        self._watches[alloc.task_id] = alloc
+        return task_id in self.watches or self.is_open(task_id)
 
     # --- opening and running -------------------------------------------------------------
     def open(
@@ -239,7 +224,7 @@ class AuctionHouse:
             rec.id, rec.task_id, rec.task_type, rec.location, winner, self.ports.env.now
         )
         alloc.search_path = rec.search_path
-        self._watches[rec.task_id] = alloc
+        self.watches.add(alloc)
 
     def cancel(self, auction_id: str) -> None:
         rec = self._open.pop(auction_id, None)
@@ -268,55 +253,14 @@ class AuctionHouse:
         that this house took up for it are let go."""
         for aid in auction_ids:
             self.cancel(aid)
-        for tid, alloc in list(self._watches.items()):
-            if alloc.auction_id in auction_ids:
-                del self._watches[tid]
+        self.watches.drop_auctions(auction_ids)
 
-    # --- watching winners ----------------------------------------------------------------
-    def check_winners(self, grace: float) -> None:
-        """A winner that neither lists a task in its heartbeat nor reports it done has dropped
-        it: offered again. One that reports it done ends the watch (its TaskDone was lost).
-        One that lists it holds it, whatever its list of finished tasks says: a site's task
-        can come back to a robot that once found it worked by another ("void")."""
-        board = self.ports.liveness
-        for tid, alloc in list(self._watches.items()):
-            hb = board.last_heartbeat(self.owner, alloc.winner)
-            if hb is None or hb.t < alloc.since + grace or tid in hb.tasks:
-                continue
-            del self._watches[tid]
-            if tid not in hb.done:
-                self.reoffer(alloc, hb)
-
-    def winner_down(self, peer: str) -> None:
-        """`peer` failed or left: every task it won here is offered again."""
-        board = self.ports.liveness
-        for tid, alloc in list(self._watches.items()):
-            if alloc.winner == peer:
-                del self._watches[tid]
-                self.reoffer(alloc, board.last_heartbeat(self.owner, peer))
-
+    # --- after the close -------------------------------------------------------------------
     def task_done(self, msg: TaskDone) -> None:
-        """A TaskDone: only the robot a task was allocated to ends its watch (a duplicate
-        holder's "void" must not end the real holder's); a released task is offered again; a
-        task done needs no auction any more.
-
-        A "void" from my winner while another robot's heartbeat lists the task means that
-        robot works it (a site found worked: its holder had been thought down, out of radio
-        reach say, and the task given again): I watch that robot instead, so its letting go
-        later is seen in its heartbeats even if its TaskDone does not reach me."""
-        alloc = self._watches.get(msg.task_id)
-        if alloc is not None and alloc.winner == msg.sender:
-            del self._watches[msg.task_id]
-        else:
-            alloc = None
-        if alloc is not None and msg.outcome == "released":
-            self.reoffer(alloc, None)
-        elif alloc is not None and msg.outcome == "void":
-            holder = self.ports.liveness.holder_of(self.owner, msg.task_id, but=msg.sender)
-            if holder is not None:
-                alloc.winner, alloc.since = holder, float(self.ports.env.now)
-                self._watches[msg.task_id] = alloc
-        elif msg.outcome == "done":
+        """A TaskDone ends its winner's watch (`Watches.task_done`); a task done needs no
+        auction any more."""
+        self.watches.task_done(msg)
+        if msg.outcome == "done":
             self.cancel_task(msg.task_id)
 
     def holder_says(self, task_id: str, holder: str) -> None:
@@ -325,15 +269,13 @@ class AuctionHouse:
         for rec in list(self._open.values()):
             if rec.task_id == task_id:
                 self.cancel(rec.id)
-                self._watches[task_id] = Allocation(
-                    rec.id, rec.task_id, rec.task_type, rec.location, holder, self.ports.env.now
+                self.watches.add(
+                    Allocation(
+                        rec.id, rec.task_id, rec.task_type, rec.location, holder, self.ports.env.now
+                    )
                 )
                 return
-        alloc = self._watches.get(task_id)
-        if alloc is not None and alloc.winner != holder:
-            self.ports.publish(Revoke(sender=self.owner, task_id=task_id, robot=alloc.winner))
-            self.ports.emit("task_revoked", by=self.owner, robot=alloc.winner, task_id=task_id)
-            alloc.winner = holder
+        self.watches.keep_holder(task_id, holder)
 
     def reoffer(self, alloc: Allocation, hb: Heartbeat | None) -> None:
         """Offer a task again whose holder failed, released it or dropped it (unless a live
@@ -395,10 +337,9 @@ class AuctionHouse:
         for live in self._live.values():
             if live.process is not None and live.process.is_alive:
                 live.process.interrupt("auctioneer down")
-        duties = Duties(list(self._open.values()), dict(self._watches))
+        duties = Duties(list(self._open.values()), self.watches.take())
         self._live.clear()
         self._open.clear()
-        self._watches.clear()
         return duties
 
     def give_up(self, records: list[AuctionRecord]) -> None:
@@ -411,7 +352,7 @@ class AuctionHouse:
     def resume(self, duties: Duties) -> None:
         """Take up an earlier life's duties: its auctions again (as re-auctions), its watches."""
         for rec in duties.auctions:
-            if rec.task_id not in self._watches:
+            if rec.task_id not in self.watches:
                 self.open(
                     rec.task_type,
                     rec.location,
@@ -423,4 +364,4 @@ class AuctionHouse:
         for tid, alloc in duties.watches.items():
             if not self.handles(tid):
                 alloc.since = float(self.ports.env.now)
-                self._watches[tid] = alloc
+                self.watches.add(alloc)

@@ -189,7 +189,7 @@ class Excavator(Robot):
         self.waiting_for = task_id
         offered = False
         while self.bucket:
-            on_its_way = self.house.watching(task_id)
+            on_its_way = task_id in self.house.watches
             partner = self.partner_here
             if (
                 not on_its_way
@@ -214,7 +214,7 @@ class Excavator(Robot):
             self._arrival = None
             if arrival.triggered:
                 hauler = str(arrival.value)
-                if self.house.winner_of(task_id) not in (None, hauler):
+                if self.house.watches.winner_of(task_id) not in (None, hauler):
                     continue  # my partner came as the auction closed: its winner is on its way
                 self.house.cancel_task(task_id)
                 yield from self.transfer(hauler, site)
@@ -232,9 +232,9 @@ class Excavator(Robot):
         if not self.rendezvous.send(self, hauler, Transfer(task_id)):
             return
         self.bucket = 0
-        if not self.house.watching(task_id):
+        if task_id not in self.house.watches:
             # a coalition hand-over, outside any auction: watch its delivery all the same
-            self.house.watch(
+            self.house.watches.add(
                 Allocation(
                     f"{self.name}/coalition",
                     task_id,

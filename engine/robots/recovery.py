@@ -152,7 +152,7 @@ class Recovery:
         if bidder is not None:
             bidder.missed_closes()
         # a winner that neither lists a task nor reports it done has dropped it
-        robot.house.check_winners(2 * proto.heartbeat_s + proto.ack_timeout_s)
+        robot.house.watches.check(2 * proto.heartbeat_s + proto.ack_timeout_s)
         if robot.search is not None:
             robot.search.check_handoffs()
 
@@ -186,7 +186,7 @@ class Recovery:
         forgotten, and the smallest-named live robot of its type adopts its duties."""
         robot = self.robot
         self.ctx.observer.emit("failure_detected", by=self.name, robot=peer)
-        robot.house.winner_down(peer)
+        robot.house.watches.winner_down(peer)
         self._adopted_partners_load(peer)
         if robot.bidder is not None:
             robot.bidder.auctioneer_down(peer)
@@ -271,7 +271,7 @@ class Recovery:
             if alloc.winner in self.down:  # search where its holder was last heard carrying it
                 house.reoffer(alloc, self.ctx.liveness.last_heartbeat(self.name, alloc.winner))
             else:
-                house.watch(alloc)
+                house.watches.add(alloc)
         self.adopted[peer] = opened
         self.adopted_tasks[peer] = tuple(tasks)
         search = self.robot.search

@@ -126,7 +126,7 @@ class Transports:
         pile = {*robot.ahead, robot.waiting_for}
         board = self.ctx.liveness
         known = [(r.task_type, r.location) for r in house.open_records() if r.task_id not in pile]
-        known += [(a.task_type, a.location) for a in house.watches() if a.task_id not in pile]
+        known += [(a.task_type, a.location) for a in house.watches if a.task_id not in pile]
         for allocs in peers.peer_alloc.values():
             for a in allocs.values():
                 hb = board.last_heartbeat(self.name, a.winner)
@@ -147,7 +147,7 @@ class Transports:
         radio = self.ctx.radio
         assert radio is not None
         house = self.robot.house
-        if house.watching(task_id) or radio.in_contact(self.name):
+        if task_id in house.watches or radio.in_contact(self.name):
             return False
         proto = self.ctx.scenario.protocol
         now = float(self.env.now)
@@ -180,7 +180,7 @@ class Transports:
         until = float(self.env.now) + 3 * proto.retry_s
         robot.state = "reporting"  # (not "waiting": a partner must not take this for a site)
         while (
-            not robot.house.watching(task_id)
+            task_id not in robot.house.watches
             and robot.house.is_open(task_id)
             and self.env.now < until
         ):

@@ -353,7 +353,7 @@ def test_an_adopter_that_missed_a_close_watches_the_task_its_holder_lists() -> N
     )
     me.recovery.adopt("excavator-2")
     assert not any(r.task_id == task for r in me.house.open_records())
-    assert [a.winner for a in me.house.watches() if a.task_id == task] == [hauler]
+    assert [a.winner for a in me.house.watches if a.task_id == task] == [hauler]
 
 
 def _a_dig_watched(m: Mission):
@@ -361,7 +361,7 @@ def _a_dig_watched(m: Mission):
     while True:
         m.advance(m.now + 5.0)
         for scout in (r for r in m.ctx.robots.values() if r.rtype == "scout"):
-            for alloc in scout.house.watches():
+            for alloc in scout.house.watches:
                 cur = m.ctx.robots[alloc.winner].current
                 if alloc.task_type == "excavate" and cur and cur.task_id == alloc.task_id:
                     return scout, alloc
@@ -375,7 +375,7 @@ def test_a_winner_that_lists_its_task_holds_it_whatever_it_once_finished() -> No
     scout, alloc = _a_dig_watched(m)
     m.ctx.robots[alloc.winner].recovery.done_ids.append(alloc.task_id)  # an earlier void
     m.advance(m.now + 6 * m.ctx.scenario.protocol.heartbeat_s)  # past the grace, and checked
-    assert [a.winner for a in scout.house.watches() if a.task_id == alloc.task_id] == [alloc.winner]
+    assert [a.winner for a in scout.house.watches if a.task_id == alloc.task_id] == [alloc.winner]
 
 
 def test_a_void_while_another_robot_holds_the_task_moves_the_watch_to_it() -> None:
@@ -394,7 +394,7 @@ def test_a_void_while_another_robot_holds_the_task_moves_the_watch_to_it() -> No
         sender=winner.name, auction_id=alloc.auction_id, task_id=alloc.task_id, outcome="void"
     )
     scout.house.task_done(void)
-    assert [a.winner for a in scout.house.watches() if a.task_id == alloc.task_id] == [other.name]
+    assert [a.winner for a in scout.house.watches if a.task_id == alloc.task_id] == [other.name]
 
 
 @pytest.mark.parametrize("seed", [0, 1])
