@@ -93,17 +93,17 @@ class ShortcutPlanner:
 
     def plan(self, start: Point, goal: Point) -> Path:
         self.stats.queries += 1
-        if self._index.segment_free(start, goal):
-            self.stats.straight += 1
-            return (start, goal)
         key = (start, goal)
         cache = self._cache
         hit = cache.get(key)
-        if hit is not None:
+        if hit is not None:  # solved before, so not straight: no need to test the segment
             self.stats.cached += 1
             if self.cache_limit is not None:
                 cache.move_to_end(key)
             return unpack(hit)
+        if self._index.segment_free(start, goal):
+            self.stats.straight += 1
+            return (start, goal)
         path = self._solve(start, goal)
         cache[key] = pack(path)
         if self.cache_limit is not None and len(cache) > self.cache_limit:
