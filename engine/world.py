@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,18 +31,18 @@ class CraterIndex:
                     self.buckets[(bx, by)].append((c.x, c.y, r))
 
     def _cells(
-        self, x0: float, y0: float, x1: float, y1: float
+        self, x0: float, y0: float, x1: float, y1: float, c0: int, c1: int, r0: int, r1: int
     ) -> Iterator[list[tuple[float, float, float]]]:
-        """The buckets the segment passes through that hold craters (a crater may be in
-        several). Column by column, the rows the segment spans there (padded by one
-        bucket-hundredth against rounding): the cost grows with the segment's length, not with
-        its bounding box's area."""
+        """The buckets a segment passes through that hold craters (a crater may be in
+        several), given the columns and rows of its ends. Column by column, the rows the
+        segment spans there (padded by one bucket-hundredth against rounding): the cost grows
+        with the segment's length, not with its bounding box's area."""
         b = self.bucket
         get = self.buckets.get
         if x0 > x1:
-            x0, y0, x1, y1 = x1, y1, x0, y0
-        c0, c1 = int(x0 // b), int(x1 // b)
-        r0, r1 = int(min(y0, y1) // b), int(max(y0, y1) // b)
+            x0, y0, x1, y1, c0, c1 = x1, y1, x0, y0, c1, c0
+        if r0 > r1:
+            r0, r1 = r1, r0
         if (c1 - c0) * (r1 - r0) <= 4:  # a small box: every bucket of it is cheaper
             for bx in range(c0, c1 + 1):
                 for by in range(r0, r1 + 1):
@@ -67,30 +67,38 @@ class CraterIndex:
                     yield cell
 
     def point_free(self, x: float, y: float) -> bool:
+        b = self.bucket
         hypot = math.hypot
-        for cell in self._cells(x, y, x, y):
-            for cx, cy, r in cell:
-                if not hypot(x - cx, y - cy) > r:
-                    return False
+        for cx, cy, r in self.buckets.get((int(x // b), int(y // b)), ()):
+            if not hypot(x - cx, y - cy) > r:
+                return False
         return True
 
     def segment_free(self, a: Point, b: Point) -> bool:
         """No crater (with its margin) within reach of the segment: the first one found
-        answers, with `segment_point_distance`'s arithmetic inlined (the planner asks this
-        hundreds of thousands of times a mission)."""
+        answers. The walk over buckets (`_cells`) and `segment_point_distance`'s arithmetic
+        are inlined: the planner asks this hundreds of thousands of times a mission."""
         ax, ay = a
-        dx, dy = b[0] - ax, b[1] - ay
+        bx, by = b
+        dx, dy = bx - ax, by - ay
         seg2 = dx * dx + dy * dy
+        if seg2 == 0.0:
+            return self.point_free(ax, ay)
         hypot = math.hypot
-        for cell in self._cells(ax, ay, b[0], b[1]):
+        size = self.bucket
+        c0, c1, r0, r1 = int(ax // size), int(bx // size), int(ay // size), int(by // size)
+        if c0 == c1 and r0 == r1:  # one bucket: a third of all segments
+            cell = self.buckets.get((c0, r0))
+            if cell is None:
+                return True
+            cells: Iterable[list[tuple[float, float, float]]] = (cell,)
+        else:
+            cells = self._cells(ax, ay, bx, by, c0, c1, r0, r1)
+        for cell in cells:
             for cx, cy, r in cell:
-                if seg2 == 0.0:
-                    d = hypot(cx - ax, cy - ay)
-                else:
-                    u = ((cx - ax) * dx + (cy - ay) * dy) / seg2
-                    u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
-                    d = hypot(ax + u * dx - cx, ay + u * dy - cy)
-                if not d > r:
+                u = ((cx - ax) * dx + (cy - ay) * dy) / seg2
+                u = 0.0 if u < 0.0 else (1.0 if u > 1.0 else u)
+                if not hypot(ax + u * dx - cx, ay + u * dy - cy) > r:
                     return False
         return True
 
