@@ -1,7 +1,7 @@
-"""What an auctioneer keeps after a close (docs/spec.md §6.6): each task it allocated, watched
-until its winner reports it done, so a task whose winner fails, drops it or releases it is
-offered again. `engine.auction_house.AuctionHouse` owns one and decides how a task is offered
-again (`reoffer`); this decides when."""
+"""What an auctioneer keeps after a close (docs/spec.md §6, step 6; §10): each task it
+allocated, watched until its winner reports it done, so a task whose winner fails, drops it or
+releases it is offered again. `engine.auction_house.AuctionHouse` owns one and decides how a
+task is offered again (`reoffer`); this decides when."""
 
 from __future__ import annotations
 
