@@ -235,6 +235,18 @@ def console(page: Any) -> ConsoleLog:
     return log
 
 
+def painted(page: Any, frames: int = 2) -> None:
+    """Wait until the page has rendered `frames` more animation frames: by then resize
+    observers have run and a pending map draw is done, however slow the machine (a fixed
+    wait is either too long or, on a loaded machine, too short)."""
+    page.evaluate(
+        """n => new Promise(done => {
+            const step = k => k ? requestAnimationFrame(() => step(k - 1)) : done();
+            step(n); })""",
+        frames,
+    )
+
+
 @pytest.fixture
 def operator(page: Any) -> Any:
     """The page with the operator token already in localStorage (as if entered once)."""

@@ -8,7 +8,7 @@ from typing import Any
 
 from playwright.sync_api import Page, expect
 
-from tests.e2e.conftest import ARTIFACTS, ConsoleLog
+from tests.e2e.conftest import ARTIFACTS, ConsoleLog, painted
 from tests.e2e.test_dashboard import wait_for
 from tests.e2e.test_layout import CHART_BOXES, check_charts
 
@@ -89,7 +89,7 @@ def test_compare_keeps_scenarios_and_mixed_runs_apart(
     # at a laptop's and a phone's width: labels still clear, the page within the screen
     for w, h in ((1024, 768), (390, 844)):
         page.set_viewport_size({"width": w, "height": h})
-        page.wait_for_timeout(300)  # the charts redraw on resize
+        painted(page)  # the charts redraw on resize
         check_charts(page, ".compare-figs svg")
         assert page.evaluate("document.documentElement.scrollWidth") <= w
         page.screenshot(path=str(ARTIFACTS / f"compare-{w}.png"), full_page=True)

@@ -10,7 +10,7 @@ import httpx
 from playwright.sync_api import Page, expect
 
 from engine import load_scenario
-from tests.e2e.conftest import ConsoleLog, Server
+from tests.e2e.conftest import ConsoleLog, Server, painted
 from tests.e2e.test_dashboard import WORK, Start, wait_for
 from tests.e2e.test_live_deltas import _snapshot
 
@@ -42,7 +42,7 @@ def test_battery_bars_and_the_charge_column_show_the_streamed_charge(
     expect(page.locator("#live-status")).to_have_text("paused")
     snap = _snapshot(server, mid)
     wait_for(page, f"window.__regolith.stream.seq === {snap['seq']}")
-    page.wait_for_timeout(300)  # the next animation frame draws the paused state
+    painted(page)  # the next animation frame draws the paused state
     robots = page.evaluate("window.__regolith.stream.robots")
     up = [r for r in robots if r["alive"] and r["state"] not in ("failed", "disabled")]
     assert all(r["charge"] is not None for r in robots)

@@ -9,7 +9,7 @@ from typing import Any
 
 from playwright.sync_api import Page, expect
 
-from tests.e2e.conftest import ARTIFACTS, REPO
+from tests.e2e.conftest import ARTIFACTS, REPO, painted
 from tests.e2e.test_dashboard import WORK, Start, next_robot_poll, open_live, wait_for
 
 DOCS = os.environ.get("REGOLITH_DOCS_SCREENSHOT") == "1"
@@ -116,7 +116,7 @@ def test_layout_at_three_sizes(operator: Page, start_mission: Start, api: Any) -
 
     for name, (w, h) in SIZES.items():
         page.set_viewport_size({"width": w, "height": h})
-        page.wait_for_timeout(400)  # the charts and the map redraw on resize
+        painted(page)  # the charts and the map redraw on resize
         page.locator("#map-fit").click()
         wait_for(page, "window.__regolith.drawn && window.__regolith.drawn.labels.length > 0")
         _fits_the_screen(page, w)
