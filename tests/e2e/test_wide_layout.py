@@ -113,10 +113,8 @@ def test_a_finished_mission_shows_its_whole_map_on_load(
             if (left < 0 || top < 0 || right > box.width || bottom > box.height) out.push(l);
         }
         return out; })()"""
-    try:
-        page.wait_for_function(
-            f"() => {misplaced}.length === 0"
-        )  # (a function: the CSP forbids eval)
+    try:  # (a function, not an expression: the page's CSP forbids eval)
+        page.wait_for_function(f"() => {misplaced}.length === 0")
     except PlaywrightTimeout:
         pytest.fail(f"parts of the map lie outside its canvas: {page.evaluate(misplaced)}")
 
