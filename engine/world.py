@@ -76,8 +76,9 @@ class CraterIndex:
 
     def segment_free(self, a: Point, b: Point) -> bool:
         """No crater (with its margin) within reach of the segment: the first one found
-        answers. The walk over buckets (`_cells`) and `segment_point_distance`'s arithmetic
-        are inlined: the planner asks this hundreds of thousands of times a mission."""
+        answers. A segment within one bucket reads that bucket alone (longer ones walk the
+        buckets, `_cells`), and `segment_point_distance`'s arithmetic is inlined: the planner
+        asks this hundreds of thousands of times a mission."""
         ax, ay = a
         bx, by = b
         dx, dy = bx - ax, by - ay
