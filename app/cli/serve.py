@@ -13,6 +13,11 @@ import typer
 from app.cli.errors import fail as _fail
 from app.cli.options import DataDir, DbUrl
 
+#: Seconds an idle HTTP connection is kept open. The client must be the one to close it: a
+#: server that closes first (uvicorn's default, 5 s, is also httpx's own expiry) races a
+#: client's next request on that connection, which then meets a reset instead of an answer.
+KEEP_ALIVE_S = 75
+
 
 def _settings(command: str, db: str | None, data_dir: Path | None) -> object:
     """Settings from the environment, overridden by the options given; bad values exit 2."""
@@ -136,6 +141,7 @@ def serve(
         access_log=False,  # regolith.access logs every request, with its ids and duration
         ws_max_size=max(65536, settings.ws_max_message),
         timeout_graceful_shutdown=5,
+        timeout_keep_alive=KEEP_ALIVE_S,
         # X-Forwarded-For is Regolith's to judge (REGOLITH_TRUSTED_PROXIES), not uvicorn's
         proxy_headers=False,
     )

@@ -27,6 +27,7 @@ import pytest
 import uvicorn
 from websockets.sync.client import ClientConnection, connect
 
+from app.cli.serve import KEEP_ALIVE_S
 from app.main import create_app
 from app.settings import Settings
 from tests.field_worlds import end_field_worlds
@@ -57,6 +58,7 @@ class LiveServer:
             log_level="warning",
             ws_max_size=65536,
             lifespan="on",
+            timeout_keep_alive=KEEP_ALIVE_S,  # as `regolith serve`: the client closes idle ones
             proxy_headers=False,  # REGOLITH_TRUSTED_PROXIES decides whose X-Forwarded-For counts
         )
         self._server = server = uvicorn.Server(config)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import http.client
 import logging
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -11,7 +13,9 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 
+from app.cli.serve import KEEP_ALIVE_S
 from tests.api.conftest import TOKEN, LiveServer, make_settings, recv
+from tests.api.serve_process import ServeProcess
 from tests.progress import REQUEST_S
 
 
@@ -300,3 +304,25 @@ def test_socket_needs_the_token_when_reads_do(tmp_path: Path) -> None:
             assert anon.get("/api/missions").status_code == 401
     finally:
         server.stop()
+
+
+@pytest.mark.sqlite_only
+def test_an_idle_connection_is_left_for_the_client_to_close(tmp_path: Path) -> None:
+    """`regolith serve` keeps an idle connection open past the 5 s after which clients such
+    as httpx close their own: a server closing first races the client's next request, which
+    then meets a reset connection (a poll of a field mission failed so in CI)."""
+    idle_s = 6.0  # past uvicorn's default keep-alive and httpx's own expiry, both 5 s
+    assert idle_s < KEEP_ALIVE_S
+    with ServeProcess(tmp_path / "serve") as srv:
+        conn = http.client.HTTPConnection("127.0.0.1", srv.port, timeout=REQUEST_S)
+        try:
+            conn.request("GET", "/api/health")
+            assert conn.getresponse().read() and conn.sock is not None
+            first = conn.sock
+            time.sleep(idle_s)
+            conn.request("GET", "/api/health")
+            answer = conn.getresponse()
+            assert answer.status == 200 and answer.read(), answer.status
+            assert conn.sock is first  # the same connection, not a new one
+        finally:
+            conn.close()
