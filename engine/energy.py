@@ -42,13 +42,20 @@ class Located(Protocol):
     def position(self, t: float | None = None) -> tuple[Point, float]: ...
 
 
+class _Spell(Protocol):
+    @property
+    def since(self) -> float: ...
+
+
 class Powered(Protocol):
     """What the energy model reads of a robot (`engine.robots.base.Robot`)."""
 
     rtype: str
     battery: Battery | None
     alive: bool
-    _state_since: float
+
+    @property
+    def timed(self) -> _Spell: ...
 
     @property
     def queue(self) -> Sized: ...
@@ -237,7 +244,7 @@ class EnergyModel:
                 continue
             bat.settle(now)
             used[r.rtype] = used.get(r.rtype, 0.0) + bat.used
-            extra = now - r._state_since if r.state == "charging" else 0.0
+            extra = now - r.timed.since if r.state == "charging" else 0.0
             charging[r.rtype] = charging.get(r.rtype, 0.0) + bat.charging_s + extra
         return {
             "energy_used_kj": used,

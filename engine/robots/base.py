@@ -6,6 +6,7 @@ composed of parts, each a small class with the interface it needs of the robot d
 beside it:
 
 - `mobility` (`Mobility`): where it is, the path it drives; every robot;
+- `timed` (`TimedState`): what it is doing, timed; `wakes` (`Wake`): nudges to look again;
 - `recovery` (`Recovery`): heartbeats, its peers' liveness, adoption, its return; every robot;
 - `house` (`engine.auction_house.AuctionHouse`): its auctions and the winners it watches;
 - `bidder` (`Bidder`): only a robot type that carries out auctioned tasks;
@@ -41,11 +42,12 @@ from engine.robots.core import Assignment
 from engine.robots.hearing import HANDLERS, first_look, only_notes
 from engine.robots.mobility import Mobility, Motion
 from engine.robots.recovery import Recovery
+from engine.robots.timed_state import TimedState
+from engine.robots.wake import Wake
 from engine.round_board import Rounds
 
 if TYPE_CHECKING:
     from engine.context import MissionContext
-    from engine.energy import Battery
     from engine.robots.bidder import Bidder
     from engine.robots.search import Search
 
@@ -65,14 +67,10 @@ class Robot:
         self.name = name
         self.ctx = ctx
         self.env = ctx.env
-        self.battery: Battery | None = (
-            None if ctx.energy is None else ctx.energy.battery(self.rtype)
-        )
+        self.battery = None if ctx.energy is None else ctx.energy.battery(self.rtype)
         self.mobility = Mobility(self, pos, speed)
         self.born_at = float(self.env.now)
-        self._state = "idle"
-        self._state_since = self.born_at
-        self.time_in_state: dict[str, float] = {}  # closed spells only; see `state_times`
+        self.timed = TimedState("idle", self.born_at)
         self.alive = True
         self.enabled = True
         self.leaving = False
@@ -80,8 +78,7 @@ class Robot:
         self.current: Assignment | None = None
         self.queue: deque[Assignment] = deque()
         self._procs: list[Any] = []
-        self._wake_event: simpy.Event | None = None
-        self._wake_pending = False
+        self.wakes = Wake(self.env)
         self.life_proc: Any = None
         self.peers = {name: self.rtype}  # name -> type, from the roster, Hello and heartbeats
         # latest round heard of every announced auction: where my knowledge of one lives
@@ -125,17 +122,12 @@ class Robot:
     @property
     def state(self) -> str:
         """What the robot is doing; every change is timed on the simulation clock."""
-        return self._state
+        return self.timed.value
 
     @state.setter
     def state(self, value: str) -> None:
-        if value == self._state:
-            return
-        now = float(self.env.now)
-        spent = self.time_in_state.get(self._state, 0.0)
-        self.time_in_state[self._state] = spent + (now - self._state_since)
-        self._state, self._state_since = value, now
-        self.motion_changed()
+        if self.timed.enter(value, float(self.env.now)):
+            self.motion_changed()
 
     def motion_changed(self) -> None:
         """The draw on the battery may have changed (state or motion): settle and re-watch."""
@@ -145,11 +137,8 @@ class Robot:
             energy.update(self)
 
     def state_times(self) -> dict[str, float]:
-        """Seconds spent in each state since the robot joined, the current spell up to now
-        (they add up to now − born_at)."""
-        out = dict(self.time_in_state)
-        out[self._state] = out.get(self._state, 0.0) + (float(self.env.now) - self._state_since)
-        return out
+        """Seconds spent in each state since the robot joined, the current spell up to now."""
+        return self.timed.times(float(self.env.now))
 
     @property
     def participating(self) -> bool:
@@ -157,19 +146,10 @@ class Robot:
 
     def wake(self) -> None:
         """Nudge the behaviour to look at its situation again (a wake is never lost)."""
-        ev = self._wake_event
-        if ev is not None and not ev.triggered:
-            ev.succeed()
-        else:
-            self._wake_pending = True
+        self.wakes.send()
 
     def wait_for_wake(self) -> simpy.Event:
-        ev = self.env.event()
-        if self._wake_pending:
-            self._wake_pending = False
-            ev.succeed()
-        self._wake_event = ev
-        return ev
+        return self.wakes.wait()
 
     def spawn(self, gen: Any) -> None:
         """Run a side process of this robot; it ends quietly when the robot fails."""
