@@ -20,7 +20,7 @@ from field.clock import PAUSED_WAIT_S, MissionClock, clock_of
 from field.link import Link
 from field.trust import WORLD
 from field.wire import body_key, world_key
-from field.world_service import PAUSED
+from field.world_rules import PAUSED
 
 log = logging.getLogger("regolith.field.agent")
 QUERY_TIMEOUT_S = 2.0

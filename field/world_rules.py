@@ -1,4 +1,4 @@
-"""Who may ask the world service for what (docs/field.md, "Trust").
+"""Who may ask the world service for what, and when (docs/field.md, "Trust").
 
 The world service is the ground truth of a field mission, so each operation is checked
 against the signed identity of the robot that asks (`field.trust.Certificate`) before it is
@@ -6,7 +6,8 @@ carried out: reads are any member's; an operation that changes the world only th
 concerns may ask, and only when the world's own record allows it (a delivery only by a
 hauler that holds a mineral, a hand-over only with the giving excavator's signed consent
 (its `Transfer` message), a pile only ever one mineral smaller and only by its digger, a find
-only of a site the world showed that scout, a scan only of a cell that exists).
+only of a site the world showed that scout, a scan only of a cell that exists). While the
+mission is paused nothing changes the world: such an operation is answered `PAUSED`.
 """
 
 from __future__ import annotations
@@ -28,6 +29,17 @@ ROLE_OPS: dict[str, frozenset[str]] = {
     "hauler": frozenset({"pick", "handover", "deliver", "drop"}),
     "operator": frozenset(),
 }
+
+
+PAUSED = "paused"
+"""The world's answer to an operation that would change it while the mission is paused:
+not a refusal, "ask again once time moves" (`Agent.ask_world`)."""
+CHANGES = frozenset({"deliver", "pick", "drop", "handover", "site_set", "found", "scan"})
+"""The operations that move a mineral or change the world: none while paused."""
+
+
+class Paused(Exception):
+    """The mission is paused: the world does not change (`PAUSED`)."""
 
 
 class Refused(ValueError):

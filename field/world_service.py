@@ -36,18 +36,9 @@ from field.journal import serve as serve_journal
 from field.link import Link
 from field.trust import Certificate, Rejected, Rejections
 from field.wire import event_key, journal_key, presence_key, world_key
-from field.world_rules import Refused, authorize
+from field.world_rules import CHANGES, PAUSED, Paused, Refused, authorize
 
 log = logging.getLogger("regolith.field.world")
-PAUSED = "paused"
-"""The world's answer to an operation that would change it while the mission is paused:
-not a refusal, "ask again once time moves" (`Agent.ask_world`)."""
-CHANGES = frozenset({"deliver", "pick", "drop", "handover", "site_set", "found", "scan"})
-"""The operations that move a mineral or change the world: none while paused."""
-
-
-class Paused(Exception):
-    """The mission is paused: the world does not change (`PAUSED`)."""
 
 
 class _TerrainEnv:

@@ -17,7 +17,7 @@ import simpy
 
 from field.clock import ClockState, MissionClock, advance_to, clock_of, poll_every
 from field.transport import open_session
-from field.world_service import Paused
+from field.world_rules import Paused
 from tests.field.test_world_service import Team, _dig
 
 
