@@ -13,10 +13,10 @@ import asyncio
 import contextlib
 import logging
 from collections import Counter
-from collections.abc import Coroutine, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from time import perf_counter
-from typing import Any, Protocol
+from typing import Any
 
 from app.db.models import utcnow
 from app.live.gate import Gate
@@ -24,29 +24,17 @@ from app.live.gc_pause import GcPause
 from app.live.hub import Hub
 from app.live.mission import BATCH_EVENTS, LiveMission
 from app.live.modes import dropped_of, is_field
-from app.live.recorder import Batch, Recorder
+from app.live.recorder import Recorder
 from app.live.records import describe, failed_record
 from app.live.stepper import Stepper
 from app.live.streaming import note_auction, note_event, publish_pending
+from app.live.writes import BatchWriter, MissionWrites, safe_now
 from app.settings import Settings
 from engine import MissionInterface
 
 log = logging.getLogger("regolith.runner")
 
 TICK_S = 0.01
-
-
-def _safe_now(lm: LiveMission) -> float:
-    try:
-        return float(lm.mission.now)
-    except Exception:
-        return 0.0
-
-
-class BatchWriter(Protocol):
-    """Where the runner writes what live missions produced (`app.services.store.Store`)."""
-
-    async def write_batch(self, batch: Batch, changes: dict[str, Any] | None = None) -> None: ...
 
 
 class MissionRunner:
@@ -57,7 +45,7 @@ class MissionRunner:
 
     def __init__(self, settings: Settings, store: BatchWriter) -> None:
         self.settings = settings
-        self.store = store
+        self.writes = MissionWrites(store)
         self.gate = Gate()
         self.live: dict[int, LiveMission] = {}
         self.hubs: dict[int, Hub] = {}
@@ -69,7 +57,6 @@ class MissionRunner:
         )
         self.gc_pause = GcPause()
         self._tasks: list[asyncio.Task[None]] = []
-        self._pending: set[asyncio.Task[Any]] = set()
         # what field missions that ended had dropped from their bus, by reason (`/metrics`)
         self.field_dropped: Counter[str] = Counter()
 
@@ -97,11 +84,11 @@ class MissionRunner:
                 continue
             with self.gate:
                 if is_field(lm.mission):  # its robots mine on: the next server takes it back
-                    self._write(lm, {"sim_time": _safe_now(lm)})
+                    self.writes.write(lm, {"sim_time": safe_now(lm)})
                     continue
                 snap = self._safe_snap(lm, "interrupted")
-                self._write(lm, {"status": "interrupted", "final_state": snap})
-        await self.drain()
+                self.writes.write(lm, {"status": "interrupted", "final_state": snap})
+        await self.writes.drain()
         with self.gate:
             for lm in self.live.values():
                 if is_field(lm.mission) and not lm.finishing:
@@ -110,21 +97,6 @@ class MissionRunner:
                     lm.mission.close()
         self.live.clear()
         self.gc_pause.stop()
-
-    async def drain(self) -> None:
-        while self._pending:
-            await asyncio.gather(*list(self._pending), return_exceptions=True)
-
-    def _spawn(self, coro: Coroutine[Any, Any, None]) -> asyncio.Task[None]:
-        task = asyncio.create_task(coro)
-        self._pending.add(task)
-        task.add_done_callback(self._done)
-        return task
-
-    def _done(self, task: asyncio.Task[Any]) -> None:
-        self._pending.discard(task)
-        if not task.cancelled() and task.exception() is not None:
-            log.error("background write failed", exc_info=task.exception())
 
     # -- missions ----------------------------------------------------------------------
 
@@ -241,47 +213,10 @@ class MissionRunner:
         """Stream what `lm` produced since the last call (under the gate)."""
         publish_pending(lm)
 
-    def _write(self, lm: LiveMission, changes: dict[str, Any] | None = None) -> asyncio.Task[None]:
-        """Write what `lm` produced since the last write (under the gate), after that write:
-        order matters, a batch may update auctions the previous one inserts.
-
-        A bulkhead: a batch the mission's own data spoils (it cannot be collected, or the
-        database refuses it) ends that mission alone as failed, and its final record is
-        written even so, with the reason (`_store_final`)."""
-        try:
-            batch = lm.recorder.collect()
-        except Exception as exc:
-            if changes is None:
-                raise  # the caller ends the mission (`_quarantine`), with this final write
-            log.exception("mission %s: records not collected", lm.id, extra={"mission_id": lm.id})
-            changes = failed_record(changes, f"records not collected: {describe(exc)}")
-            batch = Batch(lm.id, _safe_now(lm))
-        previous = lm.writing
-        lm.last_flush = perf_counter()
-
-        async def write() -> None:
-            if previous is not None:
-                with contextlib.suppress(Exception):
-                    await previous
-            try:
-                await self.store.write_batch(batch, changes)
-            except Exception as exc:
-                reason = f"records refused by the database: {describe(exc)}"
-                log.exception("mission %s: %s", lm.id, reason, extra={"mission_id": lm.id})
-                if changes is None:
-                    lm.crashed = lm.crashed or reason  # `_maintain` ends it, alone
-                    return
-                await self.store.write_batch(
-                    Batch(lm.id, batch.sim_time), failed_record(changes, reason)
-                )
-
-        lm.writing = self._spawn(write())
-        return lm.writing
-
     async def flush(self, lm: LiveMission) -> None:
         """Write everything new for `lm` now (reads after this see it)."""
         with self.gate:
-            task = self._write(lm)
+            task = self.writes.write(lm)
         await task
 
     def finish(
@@ -319,7 +254,7 @@ class MissionRunner:
             changes["final_state"] = self._safe_snap(lm, changes["status"])
         else:
             changes["error"] = error
-        written = self._write(lm, changes)
+        written = self.writes.write(lm, changes)
 
         async def close() -> None:
             try:
@@ -330,7 +265,7 @@ class MissionRunner:
                 self.live.pop(lm.id, None)
                 self.forget_hub(lm.id)
 
-        lm.final_task = self._spawn(close())
+        lm.final_task = self.writes.spawn(close())
         return lm.final_task
 
     def _close_engine(self, lm: LiveMission) -> None:
@@ -390,7 +325,7 @@ class MissionRunner:
             now - lm.last_flush >= self.settings.flush_interval_s
             or lm.recorder.pending >= BATCH_EVENTS
         ):
-            self._write(lm)
+            self.writes.write(lm)
             self.stepper.wake()
 
     def _publish_frame(self, lm: LiveMission, ordered: bool = False) -> None:
