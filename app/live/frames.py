@@ -95,9 +95,9 @@ class FrameStream:
         self.counters.update(counters)
         cells: list[int] = []
         if frame["scanned"] != self.scanned:
-            raw = base64.b64decode(frame["scanned"])
-            cells = _new_cells(self._scanned_bytes, raw)
-            self.scanned, self._scanned_bytes = frame["scanned"], raw
+            bits = base64.b64decode(frame["scanned"])
+            cells = _new_cells(self._scanned_bytes, bits)
+            self.scanned, self._scanned_bytes = frame["scanned"], bits
         self.scanned_count = frame["scanned_count"]
         head = {k: frame[k] for k in ("t", "status", "policy")}
         if not (whole or poses or counters or cells) and head == self.head:
