@@ -90,8 +90,11 @@ class Recorder:
         self._awards = {aid: list(outcomes) for aid, outcomes in stored.awards.items()}
         self._index: dict[str, AuctionView] = {}
         self._seen_auctions = 0
-        # Open auctions and pending offers may still change (after a restart: check them all once).
-        self._watch: set[str] = set(stored.bids)
+        # Open auctions and pending offers may still change: after a restart, check once every
+        # auction stored and every one the replayed mission holds. A crash between a batch's
+        # event chunks and its last transaction leaves auctions whose opening events are
+        # stored (so no new event names them) and whose rows are not.
+        self._watch: set[str] = set(stored.bids) | {rec.id for rec in mission.auctions}
 
     def _auction(self, auction_id: str) -> AuctionView | None:
         auctions = self.mission.auctions

@@ -12,7 +12,7 @@ from typing import Any
 from sqlalchemy import text
 
 from app.db.session import make_engine
-from engine import reference_scenario, run_mission
+from engine import Mission, reference_scenario, run_mission
 from tests.api.conftest import (
     LiveServer,
     all_pages,
@@ -90,9 +90,10 @@ def test_restart_keeps_every_mission_auction_and_action(tmp_path: Path) -> None:
 
 def test_events_stored_past_the_missions_time_are_history_too(tmp_path: Path) -> None:
     """A batch's events go out in chunks before the transaction that moves the mission's
-    `sim_time`: a crash between them leaves events past it (seen on PostgreSQL, where each
-    transaction takes longer). Resuming replays them too, and the mission ends as if never
-    interrupted."""
+    `sim_time` and stores its auctions, bids and offers: a crash between them leaves events
+    past it, and auctions those events open never stored (seen on PostgreSQL, where each
+    transaction takes longer; CI lost two auctions so). Resuming replays the events too,
+    stores the missing auctions, and the record ends as if never interrupted."""
     server = LiveServer(make_settings(tmp_path)).start()
     try:
         with server.client() as api:
@@ -106,10 +107,12 @@ def test_events_stored_past_the_missions_time_are_history_too(tmp_path: Path) ->
                 last = db.scalar(
                     text("select max(t) from events where mission_id = :m"), {"m": mid}
                 )
-                db.execute(
-                    text("update missions set sim_time = :t where id = :m"),
-                    {"t": last / 2, "m": mid},
-                )
+                cut = {"t": last / 2, "m": mid}
+                db.execute(text("update missions set sim_time = :t where id = :m"), cut)
+                for table, at in (("auctions", "opened_at"), ("bids", "t"), ("awards", "t")):
+                    db.execute(
+                        text(f"delete from {table} where mission_id = :m and {at} > :t"), cut
+                    )
         finally:
             engine.dispose()
         server.start()
@@ -118,7 +121,22 @@ def test_events_stored_past_the_missions_time_are_history_too(tmp_path: Path) ->
             resumed = api.post(f"{base}/resume")
             assert resumed.status_code == 200, resumed.text
             record = run_to_end(api, mid)
+            auctions = all_pages(api, f"{base}/auctions")
     finally:
         server.stop()
     assert record["status"] == "completed"
-    assert record["metrics"] == run_mission(reference_scenario(), 13, "fcfs")
+    m = Mission(reference_scenario(), 13, "fcfs")
+    try:
+        assert record["metrics"] == m.run()
+        expected = [a.to_dict() for a in m.auctions]
+    finally:
+        m.close()
+    stored = {a["id"]: a for a in auctions}
+    assert set(stored) == {a["id"] for a in expected}
+    for a in expected:
+        got = stored[a["id"]]
+        assert (got["status"], got["allocated_to"]) == (a["status"], a["allocated_to"]), a["id"]
+        assert [b["bidder"] for b in got["bids"]] == [b["bidder"] for b in a["bids"]], a["id"]
+        assert [(w["winner"], w["outcome"]) for w in got["awards"]] == [
+            (w["winner"], w["outcome"]) for w in a["awards"]
+        ], a["id"]
